@@ -1,0 +1,5 @@
+#pragma once
+/// \file binpick.hpp
+/// Umbrella header: every module the library ships (the simulation, binpick/sim, stays out).
+#include "binpick/core.hpp"
+#include "binpick/fusion.hpp"

@@ -1,0 +1,185 @@
+#include <cstdint>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <rapidcheck/gtest.h>
+
+#include "binpick/core.hpp"
+#include "test_support.hpp"
+
+using namespace binpick;
+using binpick::test::uniform;
+
+namespace {
+
+template <typename Scalar>
+PinholeCamera<Scalar> random_pinhole() {
+  // Realistic fields of view (normalized image coordinates within about ±0.6), so that moderate lens
+  // distortion stays monotonic over the image.
+  const int w = *rc::gen::inRange(16, 2048);
+  const int h = std::max(8, int(w * uniform(0.5, 1.0)));
+  const double f = w * uniform(0.8, 1.5);
+  return PinholeCamera<Scalar>(Scalar(f), Scalar(f * uniform(0.9, 1.1)), Scalar(w * uniform(0.4, 0.6)),
+                               Scalar(h * uniform(0.4, 0.6)), w, h);
+}
+
+template <typename Scalar>
+BrownConradyCamera<Scalar> random_brown_conrady() {
+  const PinholeCamera<Scalar> p = random_pinhole<Scalar>();
+  // Moderate distortion, as real industrial lenses: monotonic over the image.
+  BrownConradyDistortion<Scalar> d{Scalar(uniform(-0.2, 0.2)), Scalar(uniform(-0.05, 0.05)),
+                                   Scalar(uniform(-1e-3, 1e-3)), Scalar(uniform(-1e-3, 1e-3)),
+                                   Scalar(uniform(-0.01, 0.01))};
+  return BrownConradyCamera<Scalar>(p.fx(), p.fy(), p.cx(), p.cy(), p.width(), p.height(), d);
+}
+
+// Tolerance on the round-trip pixel, per scalar type [px].
+template <typename Scalar>
+double pixel_tolerance() {
+  return std::is_same<Scalar, float>::value ? 5e-2 : 1e-6;
+}
+
+template <typename Camera>
+void check_roundtrip(const Camera& cam) {
+  using Scalar = typename Camera::Scalar;
+  const Scalar u = Scalar(uniform(0, cam.width() - 1));
+  const Scalar v = Scalar(uniform(0, cam.height() - 1));
+  const Scalar z = Scalar(uniform(0.05, 5.0));
+  const auto p = cam.backproject(u, v, z);
+  RC_ASSERT(std::abs(double(p.z() - z)) <= 1e-6 * z);
+  const auto px = cam.project(p);
+  RC_ASSERT(px.has_value());
+  RC_ASSERT(std::abs(double(px->x() - u)) <= pixel_tolerance<Scalar>() * (1 + std::abs(double(u)) * 1e-3));
+  RC_ASSERT(std::abs(double(px->y() - v)) <= pixel_tolerance<Scalar>() * (1 + std::abs(double(v)) * 1e-3));
+}
+
+}  // namespace
+
+static_assert(is_camera_model<PinholeCameraf>::value, "pinhole is a camera model");
+static_assert(is_camera_model<BrownConradyCamerad>::value, "Brown-Conrady is a camera model");
+static_assert(!is_camera_model<int>::value, "int is not a camera model");
+
+RC_GTEST_PROP(Camera, PinholeRoundTripDouble, ()) { check_roundtrip(random_pinhole<double>()); }
+RC_GTEST_PROP(Camera, PinholeRoundTripFloat, ()) { check_roundtrip(random_pinhole<float>()); }
+RC_GTEST_PROP(Camera, BrownConradyRoundTripDouble, ()) { check_roundtrip(random_brown_conrady<double>()); }
+RC_GTEST_PROP(Camera, BrownConradyRoundTripFloat, ()) { check_roundtrip(random_brown_conrady<float>()); }
+
+RC_GTEST_PROP(Camera, BrownConradyAgreesWithOpenCV, ()) {
+  const auto cam = random_brown_conrady<double>();
+  const auto& d = cam.distortion();
+  cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx(), 0, cam.cx(), 0, cam.fy(), cam.cy(), 0, 0, 1);
+  cv::Mat dist = (cv::Mat_<double>(1, 5) << d.k1, d.k2, d.p1, d.p2, d.k3);
+  // A point seen near the image centre region (normalized coordinates up to ±0.4).
+  const double x = uniform(-0.4, 0.4), y = uniform(-0.3, 0.3), z = uniform(0.1, 3.0);
+  std::vector<cv::Point3d> obj{cv::Point3d(x * z, y * z, z)};
+  std::vector<cv::Point2d> img;
+  cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, dist, img);
+  const auto ours = cam.project(Eigen::Vector3d(x * z, y * z, z));
+  if (img[0].x < -0.5 || img[0].y < -0.5 || img[0].x >= cam.width() - 0.5 || img[0].y >= cam.height() - 0.5) {
+    RC_ASSERT(!ours.has_value());
+  } else {
+    RC_ASSERT(ours.has_value());
+    RC_ASSERT(std::abs(ours->x() - img[0].x) < 1e-6);
+    RC_ASSERT(std::abs(ours->y() - img[0].y) < 1e-6);
+  }
+}
+
+TEST(Camera, ProjectRejectsBehindAndOutside) {
+  PinholeCamerad cam(500, 500, 319.5, 239.5, 640, 480);
+  EXPECT_FALSE(cam.project(Eigen::Vector3d(0, 0, -1)).has_value());
+  EXPECT_FALSE(cam.project(Eigen::Vector3d(0, 0, 0)).has_value());
+  EXPECT_FALSE(cam.project(Eigen::Vector3d(10, 0, 1)).has_value());
+  EXPECT_FALSE(cam.project(Eigen::Vector3d(NAN, 0, 1)).has_value());
+  ASSERT_TRUE(cam.project(Eigen::Vector3d(0, 0, 1)).has_value());
+  EXPECT_DOUBLE_EQ(cam.project(Eigen::Vector3d(0, 0, 1))->x(), 319.5);
+}
+
+TEST(Camera, BadIntrinsicsThrowNamingTheArgument) {
+  auto expect_names = [](auto&& make, const char* arg) {
+    try {
+      make();
+      ADD_FAILURE() << "no exception for " << arg;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("'") + arg + "'"), std::string::npos) << e.what();
+    }
+  };
+  expect_names([] { PinholeCamerad(0, 500, 1, 1, 10, 10); }, "fx");
+  expect_names([] { PinholeCamerad(500, -1, 1, 1, 10, 10); }, "fy");
+  expect_names([] { PinholeCamerad(500, 500, NAN, 1, 10, 10); }, "cx");
+  expect_names([] { PinholeCamerad(500, 500, 1, INFINITY, 10, 10); }, "cy");
+  expect_names([] { PinholeCameraf(500, 500, 1, 1, 0, 10); }, "width");
+  expect_names([] { PinholeCameraf(500, 500, 1, 1, 10, -3); }, "height");
+  expect_names([] { BrownConradyCamerad(500, 500, 1, 1, 10, 10, {NAN, 0, 0, 0, 0}); }, "k1");
+  expect_names([] { BrownConradyCamerad(500, 500, 1, 1, 10, 10, {0, 0, 0, 0, INFINITY}); }, "k3");
+}
+
+TEST(DepthImageView, Uint16MillimetresWithStrideAndInvalids) {
+  // 3 x 2 image inside rows of 5 elements (as a cv::Mat ROI would be).
+  std::vector<std::uint16_t> buf = {1000, 0, 65535, 7, 7,  //
+                                    250, 1, 2, 7, 7};
+  DepthImageView<float> view(buf.data(), 3, 2, 5 * sizeof(std::uint16_t), 0.001f);
+  EXPECT_FLOAT_EQ(view.depth(0, 0), 1.0f);
+  EXPECT_EQ(view.depth(1, 0), 0.0f);
+  EXPECT_FLOAT_EQ(view.depth(2, 0), 65.535f);
+  EXPECT_FLOAT_EQ(view.depth(0, 1), 0.25f);
+  EXPECT_FLOAT_EQ(view.depth(2, 1), 0.002f);
+}
+
+TEST(DepthImageView, FloatInvalidValuesReadAsZero) {
+  std::vector<float> buf = {1.5f, NAN, -2.0f, INFINITY, -INFINITY, 0.0f};
+  DepthImageView<double> view(buf.data(), 6, 1);
+  EXPECT_DOUBLE_EQ(view.depth(0, 0), 1.5);
+  for (int u = 1; u < 6; ++u) EXPECT_EQ(view.depth(u, 0), 0.0) << u;
+}
+
+TEST(DepthImageView, BadArguments) {
+  std::vector<float> buf(4);
+  EXPECT_THROW(DepthImageView<float>(buf.data(), 4, 1, 8), std::invalid_argument);  // stride < row
+  EXPECT_THROW(DepthImageView<float>(static_cast<const float*>(nullptr), 4, 1), std::invalid_argument);
+  EXPECT_THROW(DepthImageView<float>(buf.data(), 4, 1, 0, 0.0f), std::invalid_argument);
+  EXPECT_THROW(DepthImageView<float>(buf.data(), 4, 1, 0, NAN), std::invalid_argument);
+  EXPECT_THROW(DepthImageView<float>(buf.data(), -1, 1), std::invalid_argument);
+  EXPECT_NO_THROW(DepthImageView<float>(static_cast<const float*>(nullptr), 0, 0));
+}
+
+TEST(DepthImage, OwningImageViewAndValidCount) {
+  DepthImage<float> img(4, 3);
+  img.at(1, 2) = 0.5f;
+  img.at(3, 0) = NAN;
+  EXPECT_EQ(img.valid_count(), 1u);
+  const auto v = img.view();
+  EXPECT_EQ(v.width(), 4);
+  EXPECT_FLOAT_EQ(v.depth(1, 2), 0.5f);
+  EXPECT_EQ(v.depth(3, 0), 0.0f);
+}
+
+TEST(Pose, CameraPoseIsFlangeTimesHandEye) {
+  Isometry3d T_base_flange = Isometry3d::Identity();
+  T_base_flange.translate(Eigen::Vector3d(0.1, 0.2, 0.5)).rotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()));
+  Isometry3d T_flange_camera = Isometry3d::Identity();
+  T_flange_camera.translation() = Eigen::Vector3d(0, 0.05, 0.02);
+  const Isometry3d T = camera_pose_in_base(T_base_flange, T_flange_camera);
+  const Eigen::Vector3d p_camera(0.01, 0.02, 0.3);
+  EXPECT_TRUE((T * p_camera).isApprox(T_base_flange * (T_flange_camera * p_camera), 1e-12));
+  EXPECT_TRUE(relative_pose(T, T).isApprox(Isometry3d::Identity(), 1e-12));
+}
+
+TEST(Pose, ValidationRejectsBadPoses) {
+  Isometry3d T = Isometry3d::Identity();
+  EXPECT_NO_THROW(require_valid_pose(T, "T"));
+  T.matrix()(0, 3) = NAN;
+  EXPECT_THROW(require_valid_pose(T, "T"), std::invalid_argument);
+  T = Isometry3d::Identity();
+  T.matrix()(0, 0) = 2.0;
+  EXPECT_THROW(require_valid_pose(T, "T"), std::invalid_argument);
+  T = Isometry3d::Identity();
+  T.matrix()(0, 0) = -1.0;  // a reflection
+  EXPECT_THROW(require_valid_pose(T, "T"), std::invalid_argument);
+}
+
+TEST(Pose, RotationAngleAccurateForSmallAngles) {
+  Isometry3f T = Isometry3f::Identity();
+  T.linear() = Eigen::AngleAxisf(1e-4f, Eigen::Vector3f::UnitX()).toRotationMatrix();
+  EXPECT_NEAR(rotation_angle(T), 1e-4f, 1e-7f);
+}

@@ -1,0 +1,35 @@
+#pragma once
+// Shared helpers of the test executables: rapidcheck generators for cameras, poses and scalars.
+#include <cmath>
+#include <string>
+
+#include <Eigen/Geometry>
+#include <rapidcheck.h>
+
+#include "binpick/core.hpp"
+
+namespace binpick::test {
+
+/// Uniform real in [lo, hi] from rapidcheck (shrinks toward lo).
+inline double uniform(double lo, double hi) {
+  const int k = *rc::gen::inRange(0, 1000001);
+  return lo + (hi - lo) * (double(k) / 1000000.0);
+}
+
+/// A random rotation of at most max_angle [rad] about a random axis, and a translation of at most
+/// max_translation [m] per axis.
+template <typename Scalar>
+Isometry3<Scalar> random_pose(double max_angle, double max_translation) {
+  Eigen::Vector3d axis(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
+  if (axis.norm() < 1e-3) axis = Eigen::Vector3d::UnitZ();
+  const double angle = uniform(-max_angle, max_angle);
+  Isometry3<double> T = Isometry3<double>::Identity();
+  T.linear() = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(uniform(-max_translation, max_translation), uniform(-max_translation, max_translation),
+                                    uniform(-max_translation, max_translation));
+  return T.cast<Scalar>();
+}
+
+inline std::string data_dir() { return BINPICK_DATA_DIR; }
+
+}  // namespace binpick::test
