@@ -1,0 +1,122 @@
+#pragma once
+// binpick's small benchmark harness: warm-up, trials, median/min/max, thread counts, one JSON object per
+// line on stdout (flushed line by line, so a crash of a peer library never loses earlier lines).
+//
+//   bench_x [--threads 1,2] [--trials N] [--warmup N] [--quick]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace binpick::bench {
+
+struct Options {
+  std::vector<int> threads{1, 2};  ///< thread counts to run each case with
+  int trials = 15;                 ///< timed repetitions
+  int warmup = 3;                  ///< untimed repetitions first
+  bool quick = false;              ///< smaller sizes / fewer trials (smoke runs)
+};
+
+inline Options parse_options(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "missing value after %s\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--threads") {
+      o.threads.clear();
+      std::stringstream ss(next());
+      std::string t;
+      while (std::getline(ss, t, ',')) o.threads.push_back(std::max(1, std::atoi(t.c_str())));
+    } else if (a == "--trials") {
+      o.trials = std::max(1, std::atoi(next().c_str()));
+    } else if (a == "--warmup") {
+      o.warmup = std::max(0, std::atoi(next().c_str()));
+    } else if (a == "--quick") {
+      o.quick = true;
+      o.trials = 3;
+      o.warmup = 1;
+    } else if (a == "--help" || a == "-h") {
+      std::printf("usage: %s [--threads 1,2] [--trials N] [--warmup N] [--quick]\n", argv[0]);
+      std::exit(0);
+    } else {
+      std::fprintf(stderr, "unknown option %s\n", a.c_str());
+      std::exit(2);
+    }
+  }
+  return o;
+}
+
+struct Stats {
+  double median = 0, min = 0, max = 0;  ///< in the unit of measure() (milliseconds)
+};
+
+/// Runs f() warmup times untimed, then trials times timed; milliseconds.
+template <typename F>
+Stats measure(F&& f, int warmup, int trials) {
+  for (int i = 0; i < warmup; ++i) f();
+  std::vector<double> t;
+  t.reserve(std::size_t(trials));
+  for (int i = 0; i < trials; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    const auto t1 = std::chrono::steady_clock::now();
+    t.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+  }
+  std::sort(t.begin(), t.end());
+  Stats s;
+  s.min = t.front();
+  s.max = t.back();
+  s.median = t.size() % 2 ? t[t.size() / 2] : 0.5 * (t[t.size() / 2 - 1] + t[t.size() / 2]);
+  return s;
+}
+
+/// One JSON object on one line: JsonLine("fuse").num("threads", 1).stats(s, "ms").print();
+class JsonLine {
+ public:
+  explicit JsonLine(const std::string& name) { str("name", name); }
+  JsonLine& num(const std::string& key, double v) {
+    char buf[64];
+    if (std::isfinite(v)) std::snprintf(buf, sizeof buf, "%.6g", v);
+    else std::snprintf(buf, sizeof buf, "null");
+    return raw(key, buf);
+  }
+  JsonLine& str(const std::string& key, const std::string& v) { return raw(key, "\"" + v + "\""); }
+  /// median_<unit>, min_<unit>, max_<unit> and "unit".
+  JsonLine& stats(const Stats& s, const std::string& unit = "ms", double scale = 1.0) {
+    num("median_" + unit, s.median * scale);
+    num("min_" + unit, s.min * scale);
+    num("max_" + unit, s.max * scale);
+    return str("unit", unit);
+  }
+  void print() const {
+    std::printf("{%s}\n", body_.c_str());
+    std::fflush(stdout);
+  }
+
+ private:
+  JsonLine& raw(const std::string& key, const std::string& v) {
+    if (!body_.empty()) body_ += ", ";
+    body_ += "\"" + key + "\": " + v;
+    return *this;
+  }
+  std::string body_;
+};
+
+/// Keeps the optimizer from discarding a computed value.
+template <typename T>
+inline void do_not_optimize(const T& v) {
+  asm volatile("" : : "g"(&v) : "memory");
+}
+
+}  // namespace binpick::bench
