@@ -3,3 +3,4 @@
 /// Umbrella header: every module the library ships (the simulation, binpick/sim, stays out).
 #include "binpick/core.hpp"
 #include "binpick/fusion.hpp"
+#include "binpick/geometry.hpp"
