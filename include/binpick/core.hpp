@@ -5,5 +5,6 @@
 #include "binpick/core/camera_model.hpp"
 #include "binpick/core/depth_image.hpp"
 #include "binpick/core/errors.hpp"
+#include "binpick/core/parallel.hpp"
 #include "binpick/core/pose.hpp"
 #include "binpick/core/scalar_traits.hpp"

@@ -1,0 +1,189 @@
+#pragma once
+/// \file fuse.hpp
+/// The fusion pipeline (paper §III.B, Alg. 1, Figs. 3–4): views 2..n are reprojected into view 1 (the
+/// reference, captured at the pull-up stop with an exact pose) and voted per pixel into ONE depth image
+/// of view 1. The result is expressed in the reference camera; `T_base_target` puts it into the robot
+/// base frame (Fig. 3: the reference view is the bridge to the robot).
+///
+/// \code
+///   binpick::Fuser<float, binpick::PinholeCamera<float>> fuser(camera);   // keep it across cycles
+///   binpick::FusionSettings<float> settings;                              // δ = 2 × 1 mm
+///   auto result = fuser.fuse(views, T_base_views, settings);              // views[0] is the target
+///   // result.depth: fused depth of view 1 [m]; result.T_base_target: its pose in the robot base
+/// \endcode
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "binpick/core/camera_model.hpp"
+#include "binpick/core/depth_image.hpp"
+#include "binpick/core/parallel.hpp"
+#include "binpick/core/pose.hpp"
+#include "binpick/fusion/reproject.hpp"
+#include "binpick/fusion/voting.hpp"
+
+namespace binpick {
+
+/// Settings of the fusion pipeline.
+template <typename Scalar>
+struct FusionSettings {
+  Scalar sensor_accuracy = Scalar(0.001);  ///< [m] depth accuracy of the sensor
+  Scalar delta = Scalar(0);                ///< [m] voting threshold δ; 0 = 2 × sensor_accuracy (Alg. 1)
+  int min_votes = 1;                       ///< fewer votes → no measurement (1: a single view passes)
+  bool compute_votes = false;              ///< also output the per-pixel vote count (a confidence map)
+  int num_threads = 1;                     ///< 0 = all cores; the output is the same for any count
+
+  Scalar effective_delta() const { return delta > Scalar(0) ? delta : Scalar(2) * sensor_accuracy; }
+};
+
+/// What happened to one input view.
+struct FusionViewReport {
+  std::size_t valid_pixels = 0;  ///< valid depth pixels in the input view
+};
+
+template <typename Scalar>
+struct FusionResult {
+  DepthImage<Scalar> depth;         ///< fused depth of the target view [m]; 0 = no measurement
+  VoteMap votes;                    ///< votes per pixel; empty unless settings.compute_votes
+  Isometry3<Scalar> T_base_target;  ///< pose of the target camera in the robot base frame
+  std::vector<FusionViewReport> views;
+  std::size_t valid_pixels = 0;     ///< valid pixels of the fused depth
+};
+
+/// Reusable fusion context for one camera: keeps the camera's ray table and the per-view planes, so a
+/// cycle after the first allocates nothing large.
+template <typename Scalar, typename Camera>
+class Fuser {
+  static_assert(is_camera_model<Camera>::value, "Fuser: Camera must model the camera concept (core/camera_model.hpp)");
+
+ public:
+  explicit Fuser(const Camera& camera) : camera_(camera), rays_(detail::RayTable<Scalar>::make(camera)) {}
+
+  const Camera& camera() const { return camera_; }
+
+  /// Fuses `views` (views[0] is the target, views[1..] are reprojected into it) whose camera poses in
+  /// the robot base frame are `T_base_views`. All views come from this fuser's camera.
+  /// Throws std::invalid_argument naming the argument: empty or mismatched lists, a view whose size
+  /// differs from the camera's, a non-rigid or non-finite pose, δ ≤ 0, min_votes < 1, more than
+  /// kMaxFusionViews views.
+  FusionResult<Scalar> fuse(const std::vector<DepthImageView<Scalar>>& views,
+                            const std::vector<Isometry3<Scalar>>& T_base_views, const FusionSettings<Scalar>& settings) {
+    require(!views.empty(), "views", "is empty");
+    require(views.size() == T_base_views.size(), "T_base_views", "must have one pose per view");
+    return fuse_into(T_base_views[0], views, T_base_views, 1, settings);
+  }
+
+  /// Fuses all `views` into a virtual target camera at `T_base_target` that has no depth of its own
+  /// (also how a fusion is checked against a real frame left out of it).
+  FusionResult<Scalar> fuse_virtual(const Isometry3<Scalar>& T_base_target, const std::vector<DepthImageView<Scalar>>& views,
+                                    const std::vector<Isometry3<Scalar>>& T_base_views,
+                                    const FusionSettings<Scalar>& settings) {
+    require(!views.empty(), "views", "is empty");
+    require(views.size() == T_base_views.size(), "T_base_views", "must have one pose per view");
+    return fuse_into(T_base_target, views, T_base_views, 0, settings);
+  }
+
+ private:
+  FusionResult<Scalar> fuse_into(const Isometry3<Scalar>& T_base_target,
+                                 const std::vector<DepthImageView<Scalar>>& views,
+                                 const std::vector<Isometry3<Scalar>>& T_base_views, std::size_t first_reprojected,
+                                 const FusionSettings<Scalar>& settings) {
+    require(int(views.size()) <= kMaxFusionViews, "views", "more than kMaxFusionViews views");
+    require(std::isfinite(settings.sensor_accuracy) && settings.sensor_accuracy > Scalar(0), "sensor_accuracy",
+            "must be finite and > 0");
+    require(std::isfinite(settings.delta) && settings.delta >= Scalar(0), "delta", "must be finite and >= 0 (0 = 2 x accuracy)");
+    require(settings.min_votes >= 1, "min_votes", "must be >= 1");
+    const int threads = detail::resolve_num_threads(settings.num_threads);
+    require_valid_pose(T_base_target, "T_base_target");
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      require(views[i].width() == camera_.width() && views[i].height() == camera_.height(), "views",
+              "a view's size differs from the camera's");
+      require_valid_pose(T_base_views[i], "T_base_views");
+    }
+
+    const int w = camera_.width(), h = camera_.height();
+    const std::size_t npix = std::size_t(w) * std::size_t(h);
+    const std::size_t nplanes = views.size();
+    planes_.resize(nplanes);
+    for (auto& p : planes_) p.resize(npix);
+
+    FusionResult<Scalar> result;
+    result.T_base_target = T_base_target;
+    result.views.resize(views.size());
+    const Isometry3<Scalar> T_target_base = T_base_target.inverse(Eigen::Isometry);
+
+    // Line 1 of Alg. 1: one plane per view (the target view decoded, the others reprojected). Views are
+    // independent, so threads take whole views and the result does not depend on the thread count.
+    const long nviews = long(nplanes);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
+    for (long i = 0; i < nviews; ++i) {
+      Scalar* plane = planes_[std::size_t(i)].data();
+      const DepthImageView<Scalar>& view = views[std::size_t(i)];
+      result.views[std::size_t(i)].valid_pixels =
+          std::size_t(i) < first_reprojected
+              ? decode(view, plane)
+              : detail::reproject_to_plane(view, rays_, Isometry3<Scalar>(T_target_base * T_base_views[std::size_t(i)]),
+                                           camera_, plane);
+    }
+
+    // Lines 2-10: vote per pixel; rows are independent.
+    std::vector<const Scalar*> ptrs(nplanes);
+    for (std::size_t i = 0; i < nplanes; ++i) ptrs[i] = planes_[i].data();
+    result.depth.resize(w, h);
+    std::uint8_t* vote_ptr = nullptr;
+    if (settings.compute_votes) {
+      result.votes.width = w;
+      result.votes.height = h;
+      result.votes.votes.assign(npix, 0);
+      vote_ptr = result.votes.votes.data();
+    }
+    const Scalar delta = settings.effective_delta();
+    const long nrows = h;
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+    for (long v = 0; v < nrows; ++v) {
+      const std::size_t b = std::size_t(v) * std::size_t(w);
+      detail::vote_range(ptrs.data(), int(nplanes), b, b + std::size_t(w), delta, settings.min_votes, result.depth.data(),
+                         vote_ptr);
+    }
+
+    result.valid_pixels = result.depth.valid_count();
+    return result;
+  }
+
+  // The target view's own depths as a plane (+inf = none); returns its valid pixel count.
+  static std::size_t decode(const DepthImageView<Scalar>& view, Scalar* plane) {
+    const int w = view.width();
+    return view.dispatch([&](auto tag) {
+      using T = decltype(tag);
+      const Scalar scale = view.metres_per_unit();
+      const Scalar inf = std::numeric_limits<Scalar>::infinity();
+      std::size_t valid = 0;
+      for (int v = 0; v < view.height(); ++v) {
+        const T* row = view.template row<T>(v);
+        Scalar* out = plane + std::size_t(v) * std::size_t(w);
+        for (int u = 0; u < w; ++u) {
+          const Scalar d = Scalar(row[u]) * scale;
+          const bool ok = d > Scalar(0) && d < inf;
+          out[u] = ok ? d : inf;
+          valid += ok;
+        }
+      }
+      return valid;
+    });
+  }
+
+  Camera camera_;
+  detail::RayTable<Scalar> rays_;
+  std::vector<std::vector<Scalar>> planes_;
+};
+
+/// One-shot fusion (builds a Fuser; keep a Fuser instead when fusing every cycle).
+template <typename Scalar, typename Camera>
+FusionResult<Scalar> fuse(const std::vector<DepthImageView<Scalar>>& views, const std::vector<Isometry3<Scalar>>& T_base_views,
+                          const Camera& camera, const FusionSettings<Scalar>& settings = {}) {
+  Fuser<Scalar, Camera> fuser(camera);
+  return fuser.fuse(views, T_base_views, settings);
+}
+
+}  // namespace binpick
