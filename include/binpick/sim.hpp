@@ -1,0 +1,7 @@
+#pragma once
+/// \file sim.hpp
+/// Umbrella header of the simulated cell: parts, piled scene, fake sensor, fake robot, simulated clock.
+/// Kept out of binpick.hpp: the library never includes the simulation.
+#include "binpick/sim/mesh.hpp"
+#include "binpick/sim/parts.hpp"
+#include "binpick/sim/scene.hpp"

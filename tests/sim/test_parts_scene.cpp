@@ -1,0 +1,244 @@
+// Parts and piled scene of the simulation: closed meshes inside their collision proxies, grasp poses,
+// reproducible drop-and-settle, no interpenetration, everything inside the bin, removal settles.
+#include <map>
+#include <set>
+#include <tuple>
+
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include "binpick/sim.hpp"
+#include "test_support.hpp"
+
+using namespace binpick;
+using namespace binpick::sim;
+
+namespace {
+
+template <typename Scalar>
+bool inside_spheres(const std::vector<CollisionSphere<Scalar>>& spheres, const Vector3<Scalar>& p, Scalar slack) {
+  for (const auto& s : spheres)
+    if ((p - s.centre).norm() <= s.radius + slack) return true;
+  return false;
+}
+
+// Surface samples of a mesh: vertices, edge midpoints and triangle centroids.
+template <typename Scalar>
+std::vector<Vector3<Scalar>> surface_samples(const TriangleMesh<Scalar>& m) {
+  std::vector<Vector3<Scalar>> out;
+  for (const auto& t : m.triangles) {
+    const auto &a = m.vertices[t.x()], &b = m.vertices[t.y()], &c = m.vertices[t.z()];
+    out.push_back(a);
+    out.push_back((a + b) / 2);
+    out.push_back((a + b + c) / 3);
+  }
+  return out;
+}
+
+// Minimum clearance between the collision spheres of two placed parts [m] (negative = overlap).
+double sphere_clearance(const Scene<double>& scene, const PlacedPart<double>& a, const PlacedPart<double>& b) {
+  double best = 1e9;
+  for (const auto& sa : scene.world_spheres(a))
+    for (const auto& sb : scene.world_spheres(b))
+      best = std::min(best, (sa.centre - sb.centre).norm() - sa.radius - sb.radius);
+  return best;
+}
+
+void expect_valid_pile(const Scene<double>& scene, bool check_meshes) {
+  const auto& parts = scene.parts();
+  const auto& bin = scene.bin();
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    // In the bin: every sphere above the floor and inside the walls.
+    double lowest = 1e9;
+    for (const auto& s : scene.world_spheres(parts[i])) {
+      ASSERT_GE(s.centre.z() - s.radius, -1e-9) << "part " << i << " below the floor";
+      ASSERT_LE(std::abs(s.centre.x()) + s.radius, bin.length / 2 + 1e-9) << "part " << i << " through a wall";
+      ASSERT_LE(std::abs(s.centre.y()) + s.radius, bin.width / 2 + 1e-9) << "part " << i << " through a wall";
+      lowest = std::min(lowest, s.centre.z() - s.radius);
+    }
+    // Resting: touching the floor or a part placed before it.
+    double support = lowest;
+    for (std::size_t j = 0; j < i; ++j) support = std::min(support, sphere_clearance(scene, parts[i], parts[j]));
+    EXPECT_LT(support, 1e-6) << "part " << i << " floats";
+    for (std::size_t j = 0; j < i; ++j) {
+      ASSERT_GE(sphere_clearance(scene, parts[i], parts[j]), -1e-9) << "parts " << i << " and " << j << " overlap";
+      if (!check_meshes) continue;
+      // The meshes themselves: no surface sample of one part lies inside the other.
+      const auto& mj = scene.model(parts[j].type).mesh;
+      const Isometry3d T_j_i = parts[j].T_base_part.inverse() * parts[i].T_base_part;
+      if ((parts[i].T_base_part.translation() - parts[j].T_base_part.translation()).norm() >
+          scene.model(parts[i].type).bounding_radius + scene.model(parts[j].type).bounding_radius)
+        continue;
+      for (const auto& p : surface_samples(scene.model(parts[i].type).mesh))
+        ASSERT_FALSE(point_inside_mesh(mj, Vector3<double>(T_j_i * p))) << "parts " << i << " and " << j << " interpenetrate";
+    }
+  }
+}
+
+}  // namespace
+
+TEST(Parts, MeshesAreClosedAndInsideTheirCollisionSpheres) {
+  for (int k = 0; k < kNumPartTypes; ++k) {
+    const auto part = make_part<double>(PartType(k));
+    SCOPED_TRACE(part.name);
+    EXPECT_EQ(part.name, part_type_name(PartType(k)));
+    EXPECT_EQ(part_type_from_name(part.name), PartType(k));
+    ASSERT_GT(part.mesh.size(), 20u);
+    ASSERT_EQ(part.mesh.corner_normals.size(), 3 * part.mesh.size());
+    // Closed: every undirected edge (by position) is used exactly twice, once in each direction.
+    std::map<std::tuple<long, long, long, long, long, long>, int> directed;
+    auto key = [](const Eigen::Vector3d& v) {
+      return std::make_tuple(std::lround(v.x() * 1e7), std::lround(v.y() * 1e7), std::lround(v.z() * 1e7));
+    };
+    for (const auto& t : part.mesh.triangles)
+      for (int e = 0; e < 3; ++e) {
+        const auto a = key(part.mesh.vertices[t[e]]), b = key(part.mesh.vertices[t[(e + 1) % 3]]);
+        ++directed[std::tuple_cat(a, b)];
+      }
+    for (const auto& [edge, count] : directed) {
+      const auto reverse = std::make_tuple(std::get<3>(edge), std::get<4>(edge), std::get<5>(edge), std::get<0>(edge),
+                                           std::get<1>(edge), std::get<2>(edge));
+      ASSERT_EQ(count, 1);
+      ASSERT_EQ(directed.count(reverse), 1u) << "open edge";
+    }
+    // Outward normals: the corner normals agree with the winding.
+    for (std::size_t t = 0; t < part.mesh.size(); ++t) {
+      const auto& tri = part.mesh.triangles[t];
+      const Eigen::Vector3d n = (part.mesh.vertices[tri.y()] - part.mesh.vertices[tri.x()])
+                                    .cross(part.mesh.vertices[tri.z()] - part.mesh.vertices[tri.x()]);
+      for (int c = 0; c < 3; ++c) ASSERT_GT(n.dot(part.mesh.corner_normals[3 * t + c]), 0.0);
+    }
+    // Conservative proxy: the whole surface lies inside the union of the spheres.
+    for (const auto& p : surface_samples(part.mesh)) ASSERT_TRUE(inside_spheres(part.spheres, p, 1e-12));
+    // A few centimetres, as the paper's parts.
+    const auto [lo, hi] = part.mesh.bounds();
+    EXPECT_GT((hi - lo).maxCoeff(), 0.010);
+    EXPECT_LT((hi - lo).maxCoeff(), 0.050);
+    // Grasps: rigid, on or near the part, the gripper of Table III.
+    ASSERT_FALSE(part.grasps.empty());
+    for (const auto& g : part.grasps) {
+      EXPECT_NO_THROW(require_valid_pose(g.T_part_grasp, "grasp"));
+      EXPECT_LT(g.T_part_grasp.translation().norm(), part.bounding_radius);
+      if (part.gripper == cycle::GripperKind::two_finger) {
+        EXPECT_GT(g.opening, 0.0);
+      }
+    }
+    EXPECT_EQ(part.gripper == cycle::GripperKind::vacuum, PartType(k) == PartType::circle_nut);
+  }
+}
+
+TEST(Parts, InsideTestSeesTheSolid) {
+  const auto nut = make_part<double>(PartType::circle_nut);
+  // Origin is in the bore (not solid); a point in the annulus at mid-height is solid.
+  const auto [lo, hi] = nut.mesh.bounds();
+  const double zmid = (lo.z() + hi.z()) / 2;
+  EXPECT_FALSE(point_inside_mesh(nut.mesh, Eigen::Vector3d(0, 0, zmid)));
+  EXPECT_TRUE(point_inside_mesh(nut.mesh, Eigen::Vector3d(0.007, 0, zmid)));
+  EXPECT_FALSE(point_inside_mesh(nut.mesh, Eigen::Vector3d(0.012, 0, zmid)));
+}
+
+TEST(Parts, UnknownTypeIsRejected) {
+  try {
+    part_type_from_name("wing_nut");
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'name'"), std::string::npos) << e.what();
+  }
+  try {
+    make_part<float>(PartType(17));
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'type'"), std::string::npos) << e.what();
+  }
+  SceneSettings<double> s;
+  s.part_type = PartType(-1);
+  EXPECT_THROW(Scene<double>::generate(s, 1), std::invalid_argument);
+  s.part_type = PartType::small_screw;
+  s.num_parts = -1;
+  EXPECT_THROW(Scene<double>::generate(s, 1), std::invalid_argument);
+}
+
+TEST(Scene, GenerationIsReproducibleForASeed) {
+  SceneSettings<double> s;
+  s.part_type = PartType::mirror_nut;
+  const auto a = Scene<double>::generate(s, 42), b = Scene<double>::generate(s, 42), c = Scene<double>::generate(s, 43);
+  ASSERT_EQ(a.parts().size(), 20u);
+  ASSERT_EQ(b.parts().size(), 20u);
+  double max_diff_same = 0, max_diff_other = 0;
+  for (std::size_t i = 0; i < a.parts().size(); ++i) {
+    max_diff_same = std::max(max_diff_same, (a.parts()[i].T_base_part.matrix() - b.parts()[i].T_base_part.matrix()).cwiseAbs().maxCoeff());
+    max_diff_other = std::max(max_diff_other, (a.parts()[i].T_base_part.matrix() - c.parts()[i].T_base_part.matrix()).cwiseAbs().maxCoeff());
+  }
+  EXPECT_EQ(max_diff_same, 0.0);
+  EXPECT_GT(max_diff_other, 1e-3);
+}
+
+TEST(Scene, EveryPartTypePilesWithoutInterpenetration) {
+  for (int k = 0; k < kNumPartTypes; ++k) {
+    SceneSettings<double> s;
+    s.part_type = PartType(k);
+    const auto scene = Scene<double>::generate(s, 7 + std::uint64_t(k));
+    SCOPED_TRACE(part_type_name(PartType(k)));
+    ASSERT_EQ(scene.parts().size(), 20u);
+    expect_valid_pile(scene, true);
+    // A pile, not a single layer: some part rests on another.
+    double highest = 0;
+    for (const auto& p : scene.parts())
+      for (const auto& sp : scene.world_spheres(p)) highest = std::max(highest, sp.centre.z() - sp.radius);
+    EXPECT_GT(highest, 1e-3);
+  }
+}
+
+RC_GTEST_PROP(Scene, RandomPilesStayInTheBinAndApart, ()) {
+  SceneSettings<double> s;
+  s.part_type = PartType(*rc::gen::inRange(0, kNumPartTypes));
+  s.num_parts = *rc::gen::inRange(1, 21);
+  s.pile_spread = test::uniform(0.0, 0.2);
+  const auto seed = *rc::gen::arbitrary<std::uint64_t>();
+  const auto scene = Scene<double>::generate(s, seed);
+  RC_ASSERT(scene.parts().size() == std::size_t(s.num_parts));
+  for (std::size_t i = 0; i < scene.parts().size(); ++i) {
+    for (const auto& sp : scene.world_spheres(scene.parts()[i])) {
+      RC_ASSERT(sp.centre.z() - sp.radius >= -1e-9);
+      RC_ASSERT(std::abs(sp.centre.x()) + sp.radius <= s.bin.length / 2 + 1e-9);
+      RC_ASSERT(std::abs(sp.centre.y()) + sp.radius <= s.bin.width / 2 + 1e-9);
+    }
+    for (std::size_t j = 0; j < i; ++j) RC_ASSERT(sphere_clearance(scene, scene.parts()[i], scene.parts()[j]) >= -1e-9);
+  }
+}
+
+TEST(Scene, RemovingAPartLetsThoseOnItSettle) {
+  SceneSettings<double> s;
+  s.part_type = PartType::circle_nut;
+  s.pile_spread = 0.02;  // a tight pile: many parts rest on others
+  auto scene = Scene<double>::generate(s, 3);
+  // The part with the most parts placed after it touching it.
+  std::size_t best = 0;
+  int best_count = -1;
+  for (std::size_t k = 0; k < scene.parts().size(); ++k) {
+    int count = 0;
+    for (std::size_t j = k + 1; j < scene.parts().size(); ++j)
+      count += sphere_clearance(scene, scene.parts()[j], scene.parts()[k]) < 1e-6;
+    if (count > best_count) best_count = count, best = k;
+  }
+  ASSERT_GT(best_count, 0) << "no part rests on another";
+  std::map<int, double> z_before;
+  std::set<int> resting_on_it;
+  for (std::size_t j = best + 1; j < scene.parts().size(); ++j) {
+    z_before[scene.parts()[j].id] = scene.parts()[j].T_base_part.translation().z();
+    if (sphere_clearance(scene, scene.parts()[j], scene.parts()[best]) < 1e-6) resting_on_it.insert(scene.parts()[j].id);
+  }
+  const auto rev = scene.revision();
+  const int removed = scene.parts()[best].id;
+  ASSERT_TRUE(scene.remove_part(removed));
+  EXPECT_FALSE(scene.remove_part(removed));
+  EXPECT_GT(scene.revision(), rev);
+  ASSERT_EQ(scene.parts().size(), 19u);
+  int dropped = 0;
+  for (const auto& p : scene.parts()) {
+    if (!resting_on_it.count(p.id)) continue;
+    dropped += p.T_base_part.translation().z() < z_before[p.id] - 1e-4;
+  }
+  EXPECT_GT(dropped, 0) << "nothing settled after removing its support";
+  expect_valid_pile(scene, true);
+}
