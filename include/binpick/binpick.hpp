@@ -4,3 +4,4 @@
 #include "binpick/core.hpp"
 #include "binpick/fusion.hpp"
 #include "binpick/geometry.hpp"
+#include "binpick/active_vision.hpp"
