@@ -8,12 +8,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <type_traits>
 #include <vector>
 
 #include "binpick/core/camera_model.hpp"
 #include "binpick/core/depth_image.hpp"
+#include "binpick/core/detail/simd.hpp"
 #include "binpick/core/pose.hpp"
 
 namespace binpick {
@@ -21,6 +23,9 @@ namespace detail {
 
 /// Normalized ray (x/z, y/z) of every source pixel, computed once per camera so the per-pixel work is
 /// independent of the lens model. Pinhole rays are separable (one x per column, one y per row).
+/// Extra elements at the end of ray tables so SIMD loads past the last pixel stay in bounds.
+constexpr std::size_t kRayPad = 16;
+
 template <typename Scalar>
 struct RayTable {
   int width = 0, height = 0;
@@ -34,14 +39,14 @@ struct RayTable {
     t.height = camera.height();
     if constexpr (std::is_same<Camera, PinholeCamera<Scalar>>::value) {
       t.separable = true;
-      t.x.resize(std::size_t(t.width));
-      t.y.resize(std::size_t(t.height));
+      t.x.resize(std::size_t(t.width) + kRayPad);
+      t.y.resize(std::size_t(t.height) + kRayPad);
       for (int u = 0; u < t.width; ++u) t.x[std::size_t(u)] = (Scalar(u) - camera.cx()) / camera.fx();
       for (int v = 0; v < t.height; ++v) t.y[std::size_t(v)] = (Scalar(v) - camera.cy()) / camera.fy();
     } else {
       const std::size_t n = std::size_t(t.width) * std::size_t(t.height);
-      t.x.resize(n);
-      t.y.resize(n);
+      t.x.resize(n + kRayPad);
+      t.y.resize(n + kRayPad);
       for (int v = 0; v < t.height; ++v)
         for (int u = 0; u < t.width; ++u) {
           const auto p = camera.backproject(Scalar(u), Scalar(v), Scalar(1));
@@ -71,8 +76,9 @@ struct TargetProjector {
   }
 };
 
-/// Scatters the valid pixels of `source` into `plane` (target-sized, +inf = empty) with a z-test.
-/// `plane` is not cleared here. Rows [row_begin, row_end) of the source.
+/// Scatters the valid pixels of `source` into `plane` (target-sized, +inf = empty, plus one spare
+/// element at index width * height that absorbs invalid points) with a z-test. `plane` is not cleared
+/// here. Rows [row_begin, row_end) of the source.
 /// Returns the number of valid source pixels.
 template <typename Scalar, typename TargetCamera, typename T>
 std::size_t reproject_rows(const DepthImageView<Scalar>& source, const RayTable<Scalar>& rays,
@@ -82,8 +88,9 @@ std::size_t reproject_rows(const DepthImageView<Scalar>& source, const RayTable<
   const Scalar scale = source.metres_per_unit();
   std::size_t valid = 0;
   if constexpr (std::is_same<TargetCamera, PinholeCamera<Scalar>>::value) {
-    // Homogeneous pixel h = z * (M r) + m with M = K_t R, m = K_t t and r = (x/z, y/z, 1): per pixel
-    // 6 multiply-adds, one division, the bounds test and the z-test.
+    // Homogeneous pixel h = z * (M r) + m with M = K_t R, m = K_t t and r = (x/z, y/z, 1). Per row,
+    // first a branch-free pass (vectorized across pixels) computes each pixel's target index — invalid
+    // points get the index of a spare slot past the image — then a scatter pass does the z-test.
     Matrix3<Scalar> K = Matrix3<Scalar>::Identity();
     K(0, 0) = target.fx();
     K(1, 1) = target.fy();
@@ -93,27 +100,61 @@ std::size_t reproject_rows(const DepthImageView<Scalar>& source, const RayTable<
     const Vector3<Scalar> m = K * T_target_source.translation();
     const int tw = target.width(), th = target.height();
     const Scalar umax = Scalar(tw) - Scalar(0.5), vmax = Scalar(th) - Scalar(0.5);
+    using P = Pack<Scalar>;
+    using V = typename P::type;
+    using Mask = decltype(V() < V());  // signed integer lanes as wide as Scalar
+    using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
+    const Index spare = Index(std::size_t(tw) * std::size_t(th));
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    const int wpad = (w + P::size - 1) / P::size * P::size;
+    std::vector<Index> index(static_cast<std::size_t>(wpad));
+    std::vector<Scalar> depth(static_cast<std::size_t>(wpad)), zrow(static_cast<std::size_t>(wpad), Scalar(0));
+    const V m00 = P::splat(M(0, 0)), m01 = P::splat(M(0, 1)), m02 = P::splat(M(0, 2));
+    const V m10 = P::splat(M(1, 0)), m11 = P::splat(M(1, 1)), m12 = P::splat(M(1, 2));
+    const V m20 = P::splat(M(2, 0)), m21 = P::splat(M(2, 1)), m22 = P::splat(M(2, 2));
+    const V mx = P::splat(m.x()), my = P::splat(m.y()), mz = P::splat(m.z());
+    const V vzero = P::splat(Scalar(0)), vone = P::splat(Scalar(1)), vhalf = P::splat(Scalar(0.5));
+    const V vumax = P::splat(umax), vvmax = P::splat(vmax), vmhalf = P::splat(Scalar(-0.5));
+    const V vtw1 = P::splat(Scalar(tw - 1)), vth1 = P::splat(Scalar(th - 1));
     for (int v = row_begin; v < row_end; ++v) {
-      const T* row = source.template row<T>(v);
-      const Scalar* rx = rays.separable ? rays.x.data() : rays.x.data() + std::size_t(v) * w;
-      const Scalar* ry_row = rays.separable ? nullptr : rays.y.data() + std::size_t(v) * w;
-      const Scalar ry_const = rays.separable ? rays.y[std::size_t(v)] : Scalar(0);
-      for (int u = 0; u < w; ++u) {
+      const T* __restrict row = source.template row<T>(v);
+      std::size_t row_valid = 0;
+      for (int u = 0; u < w; ++u) {  // decode the row (invalid -> 0)
         const Scalar z = Scalar(row[u]) * scale;
-        if (!(z > Scalar(0) && z < std::numeric_limits<Scalar>::infinity())) continue;
-        ++valid;
-        const Scalar ry = ry_row ? ry_row[u] : ry_const;
-        const Scalar ax = M(0, 0) * rx[u] + M(0, 1) * ry + M(0, 2);
-        const Scalar ay = M(1, 0) * rx[u] + M(1, 1) * ry + M(1, 2);
-        const Scalar az = M(2, 0) * rx[u] + M(2, 1) * ry + M(2, 2);
-        const Scalar hz = z * az + m.z();
-        if (!(hz > Scalar(0))) continue;
-        const Scalar inv = Scalar(1) / hz;
-        const Scalar pu = (z * ax + m.x()) * inv;
-        const Scalar pv = (z * ay + m.y()) * inv;
-        if (!(pu >= Scalar(-0.5) && pu < umax && pv >= Scalar(-0.5) && pv < vmax)) continue;
-        const std::size_t idx = std::size_t(int(pv + Scalar(0.5))) * std::size_t(tw) + std::size_t(int(pu + Scalar(0.5)));
-        if (hz < plane[idx]) plane[idx] = hz;
+        const bool ok = (z > Scalar(0)) & (z < inf);
+        zrow[std::size_t(u)] = ok ? z : Scalar(0);
+        row_valid += ok;
+      }
+      valid += row_valid;
+      const Scalar* rx = rays.separable ? rays.x.data() : rays.x.data() + std::size_t(v) * w;
+      const Scalar* ry = rays.separable ? nullptr : rays.y.data() + std::size_t(v) * w;
+      const V ry_row = P::splat(rays.separable ? rays.y[std::size_t(v)] : Scalar(0));
+      for (int u = 0; u < wpad; u += P::size) {
+        const V z = P::load(&zrow[std::size_t(u)]);
+        const V x = P::load(rx + u);  // ray tables are padded by kRayPad
+        const V y = ry ? P::load(ry + u) : ry_row;
+        const V ax = m00 * x + m01 * y + m02;
+        const V ay = m10 * x + m11 * y + m12;
+        const V az = m20 * x + m21 * y + m22;
+        const V hz = z * az + mz;
+        const auto in_front = hz > vzero;
+        const V inv = vone / P::select(in_front, hz, vone);
+        const V pu = (z * ax + mx) * inv;
+        const V pv = (z * ay + my) * inv;
+        const auto ok = (z > vzero) & in_front & (pu >= vmhalf) & (pu < vumax) & (pv >= vmhalf) & (pv < vvmax);
+        // Truncation of (p + 0.5) rounds to the nearest pixel for p >= -0.5; clamped first so the
+        // conversion is defined for any value.
+        V fu = pu + vhalf, fv = pv + vhalf;
+        fu = P::select(fu < vzero, vzero, P::select(fu > vtw1, vtw1, fu));
+        fv = P::select(fv < vzero, vzero, P::select(fv > vth1, vth1, fv));
+        const Mask iu = __builtin_convertvector(fu, Mask), iv = __builtin_convertvector(fv, Mask);
+        const Mask idx = ok ? Mask(iv * Index(tw) + iu) : Mask(iu * Index(0) + spare);
+        std::memcpy(&index[std::size_t(u)], &idx, sizeof idx);
+        P::store(&depth[std::size_t(u)], hz);
+      }
+      for (int u = 0; u < w; ++u) {  // scatter with the z-test; invalid points hit the spare slot
+        const Index i = index[std::size_t(u)];
+        plane[i] = std::min(plane[i], depth[std::size_t(u)]);  // branch-free: z-test outcomes are random
       }
     }
   } else {
@@ -135,11 +176,12 @@ std::size_t reproject_rows(const DepthImageView<Scalar>& source, const RayTable<
   return valid;
 }
 
-/// Reprojects a whole view into `plane` (filled with +inf first); returns its valid pixel count.
+/// Reprojects a whole view into `plane` (width * height + 1 elements, all set to +inf first); returns
+/// its valid pixel count.
 template <typename Scalar, typename TargetCamera>
 std::size_t reproject_to_plane(const DepthImageView<Scalar>& source, const RayTable<Scalar>& rays,
-                        const Isometry3<Scalar>& T_target_source, const TargetCamera& target, Scalar* plane) {
-  std::fill(plane, plane + std::size_t(target.width()) * std::size_t(target.height()),
+                               const Isometry3<Scalar>& T_target_source, const TargetCamera& target, Scalar* plane) {
+  std::fill(plane, plane + std::size_t(target.width()) * std::size_t(target.height()) + 1,
             std::numeric_limits<Scalar>::infinity());
   return source.dispatch([&](auto tag) {
     using T = decltype(tag);
@@ -163,10 +205,11 @@ DepthImage<Scalar> reproject(const DepthImageView<Scalar>& source, const SourceC
           "image size differs from source_camera's");
   require_valid_pose(T_target_source, "T_target_source");
   DepthImage<Scalar> out(target_camera.width(), target_camera.height());
+  std::vector<Scalar> plane(out.storage().size() + 1);
   const auto rays = detail::RayTable<Scalar>::make(source_camera);
-  detail::reproject_to_plane(source, rays, T_target_source, target_camera, out.data());
-  for (Scalar& d : out.storage())
-    if (d == std::numeric_limits<Scalar>::infinity()) d = Scalar(0);
+  detail::reproject_to_plane(source, rays, T_target_source, target_camera, plane.data());
+  for (std::size_t i = 0; i < out.storage().size(); ++i)
+    out.storage()[i] = plane[i] == std::numeric_limits<Scalar>::infinity() ? Scalar(0) : plane[i];
   return out;
 }
 

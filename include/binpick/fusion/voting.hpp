@@ -11,9 +11,6 @@
 /// nearest one to the incoming depth, so a pixel's candidate list never holds more than the number of
 /// views and needs no storage beyond the per-view planes.
 ///
-/// Fast path: when a pixel's valid depths span less than δ they form one candidate (every depth is
-/// within δ of the running mean, which lies between the smallest depth and itself), so the result is
-/// their mean with one vote each; only pixels whose depths disagree take the sorting path.
 
 #include <algorithm>
 #include <cmath>
@@ -21,6 +18,7 @@
 #include <limits>
 #include <vector>
 
+#include "binpick/core/detail/simd.hpp"
 #include "binpick/core/errors.hpp"
 
 namespace binpick {
@@ -45,80 +43,75 @@ constexpr int kMaxFusionViews = 64;
 
 namespace detail {
 
-/// Alg. 1 for one pixel on its depths sorted ascending (all valid). Writes the winner's mean and votes.
-template <typename Scalar>
-inline void vote_sorted(const Scalar* d, int n, Scalar delta, Scalar& out_depth, int& out_votes) {
-  Scalar best_mean = Scalar(0);
-  int best_votes = 0;
-  Scalar mean = d[0];
-  int votes = 1;
-  for (int i = 1; i < n; ++i) {
-    if (std::abs(d[i] - mean) < delta) {  // lines 4-6: average into the candidate and vote for it
-      ++votes;
-      mean += (d[i] - mean) / Scalar(votes);
-    } else {  // line 8: a new candidate; the finished one competes (ties keep the nearer, earlier one)
-      if (votes > best_votes) best_votes = votes, best_mean = mean;
-      mean = d[i];
-      votes = 1;
-    }
-  }
-  if (votes > best_votes) best_votes = votes, best_mean = mean;
-  out_depth = best_mean;
-  out_votes = best_votes;
-}
-
 /// Votes the pixels [begin, end) of `n` planes (+inf or 0 or non-finite = no depth from that view) into
 /// `out` (0 = no measurement) and, when non-null, `votes_out`.
+///
+/// Branch-free over blocks of pixels, vectorized across pixels: each pixel's depths are
+/// sorted with an odd-even transposition network (invalid ones become +inf and sink to the end), then
+/// Alg. 1 runs over the sorted depths with selects instead of branches.
 template <typename Scalar>
 void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size_t end, Scalar delta, int min_votes,
                 Scalar* out, std::uint8_t* votes_out) {
-  constexpr std::size_t kBlock = 256;
+  constexpr std::size_t kBlock = 64;
   const Scalar inf = std::numeric_limits<Scalar>::infinity();
-  std::uint16_t slow[kBlock];
+  alignas(64) Scalar s[kMaxFusionViews][kBlock];
+  alignas(64) Scalar mean[kBlock], votes_all[kBlock];
+  const Scalar min_v = Scalar(min_votes);
   for (std::size_t b = begin; b < end; b += kBlock) {
-    const std::size_t e = std::min(end, b + kBlock);
-    int nslow = 0;
-    // Branch-free fast path over the block (auto-vectorizes): count, min, max of valid depths, then
-    // the sum of their differences to the minimum. Those differences are exact (Sterbenz) and integer
-    // multiples of the minimum's ulp, so their sum, and the mean, do not depend on the order of the
-    // views (exact while n * delta stays below 2^digits ulps: far beyond any real sensor setting).
-    for (std::size_t i = b; i < e; ++i) {
-      Scalar lo = inf, hi = 0;
-      int count = 0;
-      for (int k = 0; k < n; ++k) {
-        const Scalar v = planes[k][i];
-        const bool ok = v > Scalar(0) && v < inf;
-        lo = std::min(lo, ok ? v : inf);
-        hi = std::max(hi, ok ? v : Scalar(0));
-        count += ok;
+    const std::size_t m = std::min(kBlock, end - b);
+    for (int k = 0; k < n; ++k) {
+      const Scalar* __restrict p = planes[k] + b;
+      Scalar* __restrict sk = s[k];
+      for (std::size_t j = 0; j < m; ++j) {
+        const Scalar v = p[j];
+        sk[j] = ((v > Scalar(0)) & (v < inf)) ? v : inf;
       }
-      Scalar sum = 0;
-      for (int k = 0; k < n; ++k) {
-        const Scalar v = planes[k][i];
-        sum += (v > Scalar(0) && v < inf) ? v - lo : Scalar(0);
-      }
-      const bool agree = (hi - lo) < delta;
-      const Scalar mean = count > 0 ? lo + sum / Scalar(count) : Scalar(0);
-      out[i] = (count >= min_votes && agree) ? mean : Scalar(0);
-      if (votes_out) votes_out[i] = std::uint8_t(agree ? count : 0);
-      if (count > 0 && !agree) slow[nslow++] = std::uint16_t(i - b);
+      for (std::size_t j = m; j < kBlock; ++j) sk[j] = inf;
     }
-    // Pixels whose views disagree: sort and run Alg. 1.
-    for (int s = 0; s < nslow; ++s) {
-      const std::size_t i = b + slow[s];
-      Scalar d[kMaxFusionViews] = {};
-      int m = 0;
-      for (int k = 0; k < n; ++k) {
-        const Scalar v = planes[k][i];
-        if (v > Scalar(0) && v < inf) d[m++] = v;
+    // Sort each pixel's depths ascending (n passes of compare-exchange on neighbouring planes).
+    for (int pass = 0; pass < n; ++pass)
+      for (int k = pass & 1; k + 1 < n; k += 2) {
+        Scalar* __restrict a = s[k];
+        Scalar* __restrict c = s[k + 1];
+        for (std::size_t j = 0; j < kBlock; ++j) {
+          const Scalar lo = std::min(a[j], c[j]), hi = std::max(a[j], c[j]);
+          a[j] = lo;
+          c[j] = hi;
+        }
       }
-      std::sort(d, d + m);
-      Scalar depth = 0;
-      int votes = 0;
-      vote_sorted(d, m, delta, depth, votes);
-      out[i] = votes >= min_votes ? depth : Scalar(0);
-      if (votes_out) votes_out[i] = std::uint8_t(votes);
+    // Alg. 1 on the sorted depths: the last candidate is always the nearest one (see file comment).
+    // Written with SIMD packs and selects: a conditional division is control flow to the
+    // auto-vectorizer.
+    using P = Pack<Scalar>;
+    using V = typename P::type;
+    const V vinf = P::splat(inf), vdelta = P::splat(delta), vone = P::splat(Scalar(1)), vzero = P::splat(Scalar(0));
+    for (std::size_t j = 0; j < kBlock; j += std::size_t(P::size)) {
+      V m = P::load(&s[0][j]);
+      V votes = P::select(m < vinf, vone, vzero);
+      V best_mean = vzero, best_votes = vzero;
+      for (int k = 1; k < n; ++k) {
+        const V d = P::load(&s[k][j]);
+        const V diff = d - m;
+        const V adiff = P::select(diff < vzero, -diff, diff);
+        const auto valid = d < vinf;
+        const auto match = valid & (adiff < vdelta);  // lines 4-6: average into it, vote for it
+        const auto close = valid & ~match;            // line 8: a new candidate
+        const auto better = close & (votes > best_votes);  // ties keep the nearer, earlier one
+        best_votes = P::select(better, votes, best_votes);
+        best_mean = P::select(better, m, best_mean);
+        const V nv = votes + vone;
+        const V averaged = m + diff / nv;
+        m = P::select(match, averaged, P::select(close, d, m));
+        votes = P::select(match, nv, P::select(close, vone, votes));
+      }
+      const auto better = votes > best_votes;  // line 10: the most votes wins
+      P::store(&mean[j], P::select(better, m, best_mean));
+      P::store(&votes_all[j], P::select(better, votes, best_votes));
     }
+    for (std::size_t j = 0; j < m; ++j) out[b + j] = votes_all[j] >= min_v ? mean[j] : Scalar(0);
+    if (votes_out)
+      for (std::size_t j = 0; j < m; ++j)
+        votes_out[b + j] = std::uint8_t(votes_all[j]);
   }
 }
 
