@@ -6,4 +6,4 @@ bash scripts/setup.sh
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j2 --target binpick_demo
 mkdir -p out
-./build/examples/binpick_demo --out out "$@"
+./build/examples/binpick_demo/binpick_demo --out out "$@"

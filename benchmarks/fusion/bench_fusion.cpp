@@ -6,7 +6,7 @@
 
 #include "bench.hpp"
 #include "binpick/fusion.hpp"
-#include "synthetic_scene.hpp"
+#include "binpick/sim/box_scene.hpp"
 
 using namespace binpick;
 
@@ -22,8 +22,8 @@ int main(int argc, char** argv) {
     // The sensor's field of view: about 75 x 50 cm at 0.3 m.
     const float fx = float(sz.w) * 0.3f / 0.75f, fy = fx;
     const PinholeCamera<float> cam(fx, fy, (sz.w - 1) * 0.5f, (sz.h - 1) * 0.5f, sz.w, sz.h);
-    test::Scene scene = test::boxes_scene();
-    const auto poses = test::arc_poses(n_views);
+    sim::Scene scene = sim::boxes_scene();
+    const auto poses = sim::arc_poses(n_views);
     std::vector<DepthImage<float>> imgs;
     std::mt19937 rng(7);
     std::normal_distribution<float> noise(0.f, 0.0007f);

@@ -8,7 +8,7 @@
 #include <rapidcheck/gtest.h>
 
 #include "binpick/fusion.hpp"
-#include "synthetic_scene.hpp"
+#include "binpick/sim/box_scene.hpp"
 #include "test_support.hpp"
 
 using namespace binpick;
@@ -82,8 +82,8 @@ void naive_vote(const std::vector<Scalar>& depths, Scalar delta, int min_votes, 
 template <typename Scalar>
 void identical_copies_return_the_view() {
   const auto cam = small_camera<Scalar>();
-  const auto scene = test::boxes_scene();
-  const auto T = test::arc_poses(1)[0];
+  const auto scene = sim::boxes_scene();
+  const auto T = sim::arc_poses(1)[0];
   const DepthImage<Scalar> img = scene.render<Scalar>(cam, T);
   const int n = *rc::gen::inRange(1, 7);
   std::vector<DepthImage<Scalar>> imgs(std::size_t(n), img);
@@ -107,7 +107,7 @@ RC_GTEST_PROP(Fusion, IdenticalCopiesReturnTheViewFloat, ()) { identical_copies_
 
 TEST(Fusion, SingleViewPassesThroughUnchanged) {
   const auto cam = small_camera<float>();
-  DepthImage<float> img = test::boxes_scene().render<float>(cam, test::arc_poses(1)[0]);
+  DepthImage<float> img = sim::boxes_scene().render<float>(cam, sim::arc_poses(1)[0]);
   img.at(3, 3) = NAN;
   img.at(4, 3) = -1.0f;
   const auto r = fuse<float>({img.view()}, {Isometry3f::Identity()}, cam);
@@ -122,8 +122,8 @@ TEST(Fusion, SingleViewPassesThroughUnchanged) {
 // Views 2..n in any order give a bit-identical result (voting sorts each pixel's depths).
 RC_GTEST_PROP(Fusion, IndependentOfTheOrderOfViews2ToN, ()) {
   const auto cam = small_camera<float>();
-  const auto scene = test::boxes_scene();
-  const auto poses = test::arc_poses(5);
+  const auto scene = sim::boxes_scene();
+  const auto poses = sim::arc_poses(5);
   std::mt19937 rng(*rc::gen::arbitrary<std::uint32_t>());
   std::normal_distribution<float> noise(0.0f, 0.0015f);
   std::vector<DepthImage<float>> imgs;
@@ -152,11 +152,11 @@ RC_GTEST_PROP(Fusion, IndependentOfTheOrderOfViews2ToN, ()) {
 class FusionScene : public ::testing::Test {
  protected:
   void SetUp() override {
-    poses = test::arc_poses(4);
+    poses = sim::arc_poses(4);
     for (const auto& T : poses) truth.push_back(scene.render<double>(cam, T));
   }
   PinholeCamera<double> cam = small_camera<double>();
-  test::Scene scene = test::boxes_scene();
+  sim::Scene scene = sim::boxes_scene();
   std::vector<Isometry3<double>> poses;
   std::vector<DepthImage<double>> truth;
 };
@@ -240,8 +240,8 @@ TEST_F(FusionScene, VirtualTargetMatchesItsTruth) {
 TEST(Reproject, BrownConradySourceIntoPinholeTargetMatchesTruth) {
   const BrownConradyCamera<double> src(200, 200, 79.5, 63.5, 160, 128, {-0.1, 0.02, 0.001, -0.0005, 0.0});
   const PinholeCamera<double> dst = small_camera<double>();
-  const auto scene = test::boxes_scene();
-  const auto poses = test::arc_poses(2);
+  const auto scene = sim::boxes_scene();
+  const auto poses = sim::arc_poses(2);
   const auto src_img = scene.render<double>(src, poses[1]);
   const auto truth = scene.render<double>(dst, poses[0]);
   const auto r = reproject(src_img.view(), src, relative_pose(poses[0], poses[1]), dst);
@@ -370,8 +370,8 @@ TEST(Fusion, NaNAndNegativeDepthsAreInvalidNeverPropagated) {
 
 TEST(Fusion, Uint16MillimetreViewsFuseLikeMetres) {
   const auto cam = small_camera<float>();
-  const auto scene = test::boxes_scene();
-  const auto poses = test::arc_poses(3);
+  const auto scene = sim::boxes_scene();
+  const auto poses = sim::arc_poses(3);
   std::vector<std::vector<std::uint16_t>> mm;
   std::vector<DepthImage<float>> metres;
   for (const auto& T : poses) {

@@ -1,6 +1,7 @@
 #pragma once
-// An analytic test scene (a floor plane and axis-aligned boxes, base frame z up) ray-cast into exact
-// depth images, so fusion and registration tests can compare against the true depth.
+/// \file box_scene.hpp
+/// An analytic scene (a floor plane and axis-aligned boxes, base frame z up) ray-cast into exact depth
+/// images: ground truth for fusion and registration tests, benchmarks and the quick demo.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -10,7 +11,7 @@
 
 #include "binpick/core.hpp"
 
-namespace binpick::test {
+namespace binpick::sim {
 
 struct Box {
   Eigen::Vector3d lo, hi;  // axis-aligned, base frame [m]
@@ -98,4 +99,4 @@ inline std::vector<Isometry3<double>> arc_poses(int n, double arc_angle_rad = 0.
   return poses;
 }
 
-}  // namespace binpick::test
+}  // namespace binpick::sim
