@@ -3,6 +3,7 @@
 /// A circle in 3D (center, unit normal, radius) and the circle where a sphere meets a plane (paper
 /// §III.C.2 and Alg. 2 line 1: arc L = S ∩ P).
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -38,7 +39,8 @@ std::optional<Circle3<Scalar>> intersect(const Sphere<Scalar>& sphere, const Pla
   const Scalar rho2 = (sphere.radius - h) * (sphere.radius + h);  // R^2 - h^2 without cancellation
   const Scalar min_radius = GeometryTolerance<Scalar>::relative() * sphere.radius;
   if (!(rho2 > min_radius * min_radius)) return std::nullopt;
-  return Circle3<Scalar>{sphere.center - h * plane.normal, plane.normal, std::sqrt(rho2)};
+  // min(): rounding must never make the circle wider than the sphere (callers rely on rho <= R).
+  return Circle3<Scalar>{sphere.center - h * plane.normal, plane.normal, std::min(sphere.radius, std::sqrt(rho2))};
 }
 
 }  // namespace binpick::geometry
