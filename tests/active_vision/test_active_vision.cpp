@@ -201,6 +201,25 @@ void sensing_path_properties() {
   }
 }
 
+// With T in P, Alg. 2 lines 4–5 hold literally: N is where the line MT, rotated by β about T within P,
+// meets L. Differential check against the geometry primitives.
+template <typename Scalar>
+void sensing_path_literal_when_target_in_plane() {
+  SensingPathRequest<Scalar> q = random_request<Scalar>();
+  const auto plane = geometry::plane_through_points<Scalar>(q.grasp, q.lift, q.drop);
+  RC_PRE(plane.has_value());
+  q.target = plane->project(q.target);
+  const auto path = plan_sensing_path(q);
+  RC_PRE(path.ok());
+  const Vector3<Scalar> k = path.plane.normal;
+  const geometry::Line3<Scalar> mt{q.target, (path.start - q.target).normalized()};
+  const auto rotated = geometry::rotate_line_in_plane<Scalar>(mt, q.target, k, q.beta);
+  const auto N = geometry::exit_point(rotated, path.arc);
+  RC_ASSERT(N.has_value());
+  RC_ASSERT(double((*N - path.end).norm()) <= 10 * len_tol<Scalar>());
+  RC_ASSERT(std::abs(double(path.central_angle - q.beta)) <= ang_tol<Scalar>());
+}
+
 // ---- parameters -----------------------------------------------------------------------------------
 
 template <typename Scalar>
@@ -281,6 +300,8 @@ TEST(TargetCenter, PreconditionsThrow) {
 
 RC_GTEST_PROP(SensingPath, PropertiesDouble, ()) { sensing_path_properties<double>(); }
 RC_GTEST_PROP(SensingPath, PropertiesFloat, ()) { sensing_path_properties<float>(); }
+RC_GTEST_PROP(SensingPath, LiteralAlg2WhenTargetInPlaneDouble, ()) { sensing_path_literal_when_target_in_plane<double>(); }
+RC_GTEST_PROP(SensingPath, LiteralAlg2WhenTargetInPlaneFloat, ()) { sensing_path_literal_when_target_in_plane<float>(); }
 
 // A worked example, computed by hand (base frame, metres):
 //   A = (0, 0, 0), B = (0, 0, 0.1), C = (0.5, 0, 0.1): P is the plane y = 0; lift u = +z, toward-drop
@@ -321,6 +342,25 @@ TEST(SensingPath, WorkedExampleByHand) {
   EXPECT_GT(path.T_base_start.linear().col(0).x(), 0.9);
   ASSERT_EQ(path.T_base_captures.size(), 3u);
   EXPECT_NEAR((path.T_base_captures[2].translation() - path.end).norm(), 0, 1e-12);
+}
+
+TEST(SensingPath, WorkedExampleByHandFloat) {
+  SensingPathRequest<float> q;
+  q.target = Eigen::Vector3f(0.1f, 0.1f, 0);
+  q.radius = 0.3f;
+  q.grasp = Eigen::Vector3f(0, 0, 0);
+  q.lift = Eigen::Vector3f(0, 0, 0.1f);
+  q.drop = Eigen::Vector3f(0.5f, 0, 0.1f);
+  q.beta = float(60 * kDeg);  // γ keeps its default of 5°
+  q.num_views = 4;
+  const auto path = plan_sensing_path(q);
+  ASSERT_TRUE(path.ok()) << to_string(path.status);
+  EXPECT_NEAR(path.start.x(), 0.0148486f, 2e-6f);
+  EXPECT_NEAR(path.start.z(), 0.2697207f, 2e-6f);
+  EXPECT_NEAR(path.end.x(), 0.3052841f, 2e-6f);
+  EXPECT_NEAR(path.end.z(), 0.1945725f, 2e-6f);
+  EXPECT_NEAR(path.length_bmnc, 0.7030490f, 4e-6f);
+  EXPECT_EQ(path.T_base_captures.size(), 4u);
 }
 
 TEST(SensingPath, DegenerateGeometry) {
