@@ -5,3 +5,5 @@
 #include "binpick/sim/mesh.hpp"
 #include "binpick/sim/parts.hpp"
 #include "binpick/sim/scene.hpp"
+#include "binpick/sim/ray_caster.hpp"
+#include "binpick/sim/stereo_sensor.hpp"
