@@ -177,21 +177,23 @@ class RayCaster {
     return std::clamp(b, 0, bins - 1);
   }
 
-  static bool hit_box(const Node& n, const Vec3& o, const Vec3& inv, Scalar t_min, Scalar t_max, Scalar& t_enter) {
-    Scalar t0 = t_min, t1 = t_max;
-    for (int a = 0; a < 3; ++a) {
-      Scalar ta = (n.lo[a] - o[a]) * inv[a], tb = (n.hi[a] - o[a]) * inv[a];
-      if (ta > tb) std::swap(ta, tb);
-      // NaN (0 * inf on a slab plane) compares false and leaves the interval unchanged.
-      t0 = ta > t0 ? ta : t0;
-      t1 = tb < t1 ? tb : t1;
-      if (t0 > t1) return false;
-    }
+  __attribute__((always_inline)) static bool hit_box(const Node& n, const Vec3& o, const Vec3& inv, Scalar t_min, Scalar t_max, Scalar& t_enter) {
+    // Slab test; NaN (0 * inf on a slab plane) compares false and leaves the interval unchanged.
+    Scalar ta = (n.lo.x() - o.x()) * inv.x(), tb = (n.hi.x() - o.x()) * inv.x();
+    Scalar t0 = std::max(t_min, std::min(ta, tb)), t1 = std::min(t_max, std::max(ta, tb));
+    ta = (n.lo.y() - o.y()) * inv.y();
+    tb = (n.hi.y() - o.y()) * inv.y();
+    t0 = std::max(t0, std::min(ta, tb));
+    t1 = std::min(t1, std::max(ta, tb));
+    ta = (n.lo.z() - o.z()) * inv.z();
+    tb = (n.hi.z() - o.z()) * inv.z();
+    t0 = std::max(t0, std::min(ta, tb));
+    t1 = std::min(t1, std::max(ta, tb));
     t_enter = t0;
-    return true;
+    return t0 <= t1;
   }
 
-  bool hit_triangle(int t, const Vec3& o, const Vec3& d, Scalar t_min, Scalar t_max, Scalar& t_out, Scalar& u_out,
+  __attribute__((always_inline)) bool hit_triangle(int t, const Vec3& o, const Vec3& d, Scalar t_min, Scalar t_max, Scalar& t_out, Scalar& u_out,
                     Scalar& v_out) const {
     const Vec3& e1 = e1_[std::size_t(t)];
     const Vec3& e2 = e2_[std::size_t(t)];
@@ -217,16 +219,21 @@ class RayCaster {
   bool traverse(const Vec3& o, const Vec3& d, Scalar t_min, Scalar t_max, RayHit<Scalar>* hit) const {
     if (nodes_.empty()) return false;
     const Vec3 inv(Scalar(1) / d.x(), Scalar(1) / d.y(), Scalar(1) / d.z());
-    int stack[64];
+    // Each stack entry is a node whose box the ray enters at `enter`; boxes are tested when pushed.
+    struct Entry {
+      int node;
+      Scalar enter;
+    };
+    Entry stack[64];
     int top = 0;
-    stack[top++] = 0;
+    Scalar best = t_max, t_root;
+    if (!hit_box(nodes_[0], o, inv, t_min, best, t_root)) return false;
+    stack[top++] = {0, t_root};
     bool found = false;
-    Scalar best = t_max;
     while (top > 0) {
-      const int ni = stack[--top];
-      const Node& n = nodes_[std::size_t(ni)];
-      Scalar t_enter;
-      if (!hit_box(n, o, inv, t_min, best, t_enter)) continue;
+      const Entry e = stack[--top];
+      if (e.enter > best) continue;  // a closer hit was found since it was pushed
+      const Node& n = nodes_[std::size_t(e.node)];
       if (n.count > 0) {
         for (int i = n.first; i < n.first + n.count; ++i) {
           const int t = order_[std::size_t(i)];
@@ -243,22 +250,22 @@ class RayCaster {
         continue;
       }
       // Push the farther child first so the nearer one is visited first and shrinks `best`.
-      const int left = ni + 1, right = n.first;
+      const int left = e.node + 1, right = n.first;
       Scalar tl, tr;
       const bool hl = hit_box(nodes_[std::size_t(left)], o, inv, t_min, best, tl);
       const bool hr = hit_box(nodes_[std::size_t(right)], o, inv, t_min, best, tr);
       if (hl && hr) {
         if (tl <= tr) {
-          stack[top++] = right;
-          stack[top++] = left;
+          stack[top++] = {right, tr};
+          stack[top++] = {left, tl};
         } else {
-          stack[top++] = left;
-          stack[top++] = right;
+          stack[top++] = {left, tl};
+          stack[top++] = {right, tr};
         }
       } else if (hl) {
-        stack[top++] = left;
+        stack[top++] = {left, tl};
       } else if (hr) {
-        stack[top++] = right;
+        stack[top++] = {right, tr};
       }
     }
     return found;

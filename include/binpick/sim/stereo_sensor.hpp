@@ -140,7 +140,9 @@ struct SceneGeometry {
   std::vector<int> part;                  ///< per triangle: index into scene.parts(), -1 = bin/table
   std::vector<Scalar> curvature;          ///< per triangle: spread of corner normals per length [rad/m]
   std::vector<Material<Scalar>> materials;
-  RayCaster<Scalar> caster;                ///< parts and bin
+  RayCaster<Scalar> part_caster;           ///< over the parts' triangles (the first part_triangles)
+  RayCaster<Scalar> bin_caster;            ///< over the bin's triangles (indices offset by part_triangles)
+  std::size_t part_triangles = 0;
   Scalar table_z = 0;                      ///< the table under the bin: the plane z = table_z, matte,
                                            ///< intersected analytically (a huge triangle would spoil the BVH)
 
@@ -158,7 +160,9 @@ struct SceneGeometry {
       const auto& p = scene.parts()[i];
       add(scene.model(p.type).mesh, p.T_base_part, int(p.type), int(i));
     }
-    add(scene.bin_mesh(), Isometry3<Scalar>::Identity(), kNumPartTypes, -1);
+    g.part_triangles = g.mesh.size();
+    const TriangleMesh<Scalar> bin_mesh = scene.bin_mesh();
+    add(bin_mesh, Isometry3<Scalar>::Identity(), kNumPartTypes, -1);
     g.table_z = -scene.bin().wall_thickness;
     g.curvature.resize(g.mesh.size());
     for (std::size_t t = 0; t < g.mesh.size(); ++t) {
@@ -175,8 +179,29 @@ struct SceneGeometry {
         }
       g.curvature[t] = edge > Scalar(0) ? spread / edge : Scalar(0);
     }
-    g.caster.build(g.mesh);
+    // Two hierarchies: the bin's few huge triangles would otherwise inflate every box above the
+    // small parts' triangles, and most rays then miss the pile's box at the first test.
+    TriangleMesh<Scalar> parts_only = g.mesh;
+    parts_only.triangles.resize(g.part_triangles);
+    g.part_caster.build(parts_only);
+    g.bin_caster.build(bin_mesh);
     return g;
+  }
+
+  /// Closest hit over parts and bin (not the table).
+  bool intersect(const Vector3<Scalar>& o, const Vector3<Scalar>& d, Scalar t_min, Scalar t_max, RayHit<Scalar>& hit) const {
+    RayHit<Scalar> b;
+    const bool hb = bin_caster.intersect(o, d, t_min, t_max, b);
+    if (hb) {
+      b.triangle += int(part_triangles);
+      t_max = b.t;
+    }
+    if (part_caster.intersect(o, d, t_min, t_max, hit)) return true;
+    if (hb) hit = b;
+    return hb;
+  }
+  bool occluded(const Vector3<Scalar>& o, const Vector3<Scalar>& d, Scalar t_min, Scalar t_max) const {
+    return part_caster.occluded(o, d, t_min, t_max) || bin_caster.occluded(o, d, t_min, t_max);
   }
 };
 
@@ -346,7 +371,7 @@ class StereoSensor {
     const Vec3 d = T.linear() * d_cam;  // t along d is the depth (d_cam.z = 1)
     RayHit<Scalar> hit;
     bool on_table = false;
-    if (!geo.caster.intersect(origin, d, s_.min_range * Scalar(0.5), s_.max_range * Scalar(2), hit)) {
+    if (!geo.intersect(origin, d, s_.min_range * Scalar(0.5), s_.max_range * Scalar(2), hit)) {
       if (!(d.z() < Scalar(0))) return;
       hit.t = (geo.table_z - origin.z()) / d.z();
       on_table = true;
@@ -373,9 +398,9 @@ class StereoSensor {
     // 2. Visibility from the right camera and the projector.
     const Vec3 x_right = ctx.T_camera_base * X - Vec3(s_.baseline, 0, 0);
     if (!camera_.project(x_right)) return set(status, idx, PixelStatus::outside_right);
-    if (ng.dot(right - X) <= Scalar(0) || geo.caster.occluded(Xo, right - Xo, Scalar(0), Scalar(1)))
+    if (ng.dot(right - X) <= Scalar(0) || geo.occluded(Xo, right - Xo, Scalar(0), Scalar(1)))
       return set(status, idx, PixelStatus::occluded_right);
-    if (ng.dot(projector - X) <= Scalar(0) || geo.caster.occluded(Xo, projector - Xo, Scalar(0), Scalar(1)))
+    if (ng.dot(projector - X) <= Scalar(0) || geo.occluded(Xo, projector - Xo, Scalar(0), Scalar(1)))
       return set(status, idx, PixelStatus::shadowed);
 
     // 3. Brightness in each camera relative to a white matte target at the working distance.
@@ -397,7 +422,7 @@ class StereoSensor {
     if (e.ghosts && mat.fresnel0 >= e.ghost_min_fresnel) {
       const Vec3 r = dn - Scalar(2) * dn.dot(ns) * ns;
       RayHit<Scalar> h2;
-      if (r.dot(ng) > Scalar(0) && geo.caster.intersect(Xo, r, Scalar(0), e.ghost_max_path, h2)) {
+      if (r.dot(ng) > Scalar(0) && geo.intersect(Xo, r, Scalar(0), e.ghost_max_path, h2)) {
         const Vec3 Y = Xo + h2.t * r;
         Vec3 ng2, ns2;
         surface_normals(geo, h2, r, ng2, ns2);
@@ -488,7 +513,7 @@ class StereoSensor {
     if (h == 0) return;
     const int W = s_.width, H = s_.height;
     const Scalar inf = std::numeric_limits<Scalar>::infinity();
-    std::vector<Scalar> rowmin(std::size_t(W) * std::size_t(H)), near(rowmin.size());
+    std::vector<Scalar> rowmin(std::size_t(W) * std::size_t(H));  // nearest true depth within ±h in the row
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) {
         Scalar m = inf;
@@ -500,15 +525,12 @@ class StereoSensor {
       }
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) {
-        Scalar m = inf;
-        for (int k = std::max(0, v - h); k <= std::min(H - 1, v + h); ++k) m = std::min(m, rowmin[std::size_t(k) * std::size_t(W) + std::size_t(u)]);
-        near[std::size_t(v) * std::size_t(W) + std::size_t(u)] = m;
-      }
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u) {
         const std::size_t i = std::size_t(v) * std::size_t(W) + std::size_t(u);
-        const Scalar z = depth.data()[i], zt = truth.data()[i], zf = near[i];
-        if (!(z > Scalar(0)) || !(zt - zf > e.edge_jump)) continue;
+        const Scalar z = depth.data()[i], zt = truth.data()[i];
+        if (!(z > Scalar(0))) continue;
+        Scalar zf = inf;  // nearest true depth in the (2h+1)² window
+        for (int k = std::max(0, v - h); k <= std::min(H - 1, v + h); ++k) zf = std::min(zf, rowmin[std::size_t(k) * std::size_t(W) + std::size_t(u)]);
+        if (!(zt - zf > e.edge_jump)) continue;
         const double r = sim::detail::Rng(sim::detail::hash_keys(key, detail::kEdge, i)).uniform();
         if (r < e.edge_foreground_probability) {
           depth.data()[i] = zf + (z - zt);  // the foreground value, with this pixel's matching error
@@ -531,10 +553,10 @@ class StereoSensor {
         1, std::lround(e.speckle_filter_min_region_px * (s_.width / 1280.0) * (s_.width / 1280.0))));
     const int W = s_.width, H = s_.height;
     const Scalar fb = camera_.fx() * s_.baseline;
-    std::vector<std::int32_t> label(std::size_t(W) * std::size_t(H), -1);
+    std::vector<std::uint8_t> label(std::size_t(W) * std::size_t(H), 0);  // 1 = visited
     std::vector<std::int32_t> stack, members;
     for (std::size_t seed = 0; seed < label.size(); ++seed) {
-      if (label[seed] >= 0 || !(depth.data()[seed] > Scalar(0))) continue;
+      if (label[seed] || !(depth.data()[seed] > Scalar(0))) continue;
       members.clear();
       stack.assign(1, std::int32_t(seed));
       label[seed] = 1;
@@ -548,7 +570,7 @@ class StereoSensor {
         for (int k = 0; k < 4; ++k) {
           if (nu[k] < 0 || nv[k] < 0 || nu[k] >= W || nv[k] >= H) continue;
           const std::int32_t q = nv[k] * W + nu[k];
-          if (label[std::size_t(q)] >= 0) continue;
+          if (label[std::size_t(q)]) continue;
           const Scalar zq = depth.data()[q];
           if (!(zq > Scalar(0)) || std::abs(fb / zq - fb / zp) > e.speckle_filter_max_diff) continue;
           label[std::size_t(q)] = 1;
