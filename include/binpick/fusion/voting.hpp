@@ -115,6 +115,71 @@ void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size
   }
 }
 
+/// vote_range for a view count known at compile time: each pack of pixels keeps its N depths in
+/// registers through the sort network and Alg. 1 (no block copies); the tail goes to vote_range.
+template <typename Scalar, int N>
+void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_t end, Scalar delta, int min_votes,
+                      Scalar* out, std::uint8_t* votes_out) {
+  using P = Pack<Scalar>;
+  using V = typename P::type;
+  const Scalar inf = std::numeric_limits<Scalar>::infinity();
+  const V vinf = P::splat(inf), vdelta = P::splat(delta), vone = P::splat(Scalar(1)), vzero = P::splat(Scalar(0));
+  const V vmin = P::splat(Scalar(min_votes));
+  std::size_t j = begin;
+  for (; j + std::size_t(P::size) <= end; j += std::size_t(P::size)) {
+    V d[N];
+    for (int k = 0; k < N; ++k) {
+      const V v = P::load(planes[k] + j);
+      d[k] = P::select((v > vzero) & (v < vinf), v, vinf);
+    }
+    for (int pass = 0; pass < N; ++pass)
+      for (int k = pass & 1; k + 1 < N; k += 2) {
+        const V lo = P::select(d[k] < d[k + 1], d[k], d[k + 1]);
+        const V hi = P::select(d[k] < d[k + 1], d[k + 1], d[k]);
+        d[k] = lo;
+        d[k + 1] = hi;
+      }
+    V m = d[0];
+    V votes = P::select(m < vinf, vone, vzero);
+    V best_mean = vzero, best_votes = vzero;
+    for (int k = 1; k < N; ++k) {
+      const V diff = d[k] - m;
+      const V adiff = P::select(diff < vzero, -diff, diff);
+      const auto valid = d[k] < vinf;
+      const auto match = valid & (adiff < vdelta);
+      const auto close = valid & ~match;
+      const auto better = close & (votes > best_votes);
+      best_votes = P::select(better, votes, best_votes);
+      best_mean = P::select(better, m, best_mean);
+      const V nv = votes + vone;
+      const V averaged = m + diff / nv;
+      m = P::select(match, averaged, P::select(close, d[k], m));
+      votes = P::select(match, nv, P::select(close, vone, votes));
+    }
+    const auto better = votes > best_votes;
+    const V win_votes = P::select(better, votes, best_votes);
+    P::store(out + j, P::select(win_votes >= vmin, P::select(better, m, best_mean), vzero));
+    if (votes_out)
+      for (int l = 0; l < P::size; ++l) votes_out[j + std::size_t(l)] = std::uint8_t(win_votes[l]);
+  }
+  if (j < end) vote_range(planes, N, j, end, delta, min_votes, out, votes_out);
+}
+
+/// Dispatches to the register-resident kernel for 2..8 views, the block kernel otherwise.
+template <typename Scalar>
+void vote_pixels(const Scalar* const* planes, int n, std::size_t begin, std::size_t end, Scalar delta, int min_votes,
+                 Scalar* out, std::uint8_t* votes_out) {
+  switch (n) {
+    case 2: return vote_range_fixed<Scalar, 2>(planes, begin, end, delta, min_votes, out, votes_out);
+    case 3: return vote_range_fixed<Scalar, 3>(planes, begin, end, delta, min_votes, out, votes_out);
+    case 4: return vote_range_fixed<Scalar, 4>(planes, begin, end, delta, min_votes, out, votes_out);
+    case 5: return vote_range_fixed<Scalar, 5>(planes, begin, end, delta, min_votes, out, votes_out);
+    case 6: return vote_range_fixed<Scalar, 6>(planes, begin, end, delta, min_votes, out, votes_out);
+    case 8: return vote_range_fixed<Scalar, 8>(planes, begin, end, delta, min_votes, out, votes_out);
+    default: return vote_range(planes, n, begin, end, delta, min_votes, out, votes_out);
+  }
+}
+
 }  // namespace detail
 
 /// Votes `planes` (each `width * height` depths [m] of the target view; 0, negative, +inf or NaN = no
@@ -136,8 +201,8 @@ void vote(const std::vector<const Scalar*>& planes, int width, int height, const
     votes->votes.assign(std::size_t(width) * std::size_t(height), 0);
     v = votes->votes.data();
   }
-  detail::vote_range(planes.data(), int(planes.size()), 0, std::size_t(width) * std::size_t(height), settings.delta,
-                     settings.min_votes, out, v);
+  detail::vote_pixels(planes.data(), int(planes.size()), 0, std::size_t(width) * std::size_t(height), settings.delta,
+                      settings.min_votes, out, v);
 }
 
 }  // namespace binpick
