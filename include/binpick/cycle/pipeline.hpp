@@ -1,0 +1,816 @@
+#pragma once
+/// \file pipeline.hpp
+/// The picking cycle of Fig. 2 over the driver concepts (drivers.hpp, gripper.hpp). One call of
+/// `PickingPipeline::run_cycle()` is one cycle; it starts with the robot standing at a pull-up point
+/// (holding the part picked in the previous cycle, or empty-handed in the first cycle and after a
+/// search) and ends at the next pull-up point with the next part in hand.
+///
+/// Our cycle (Strategy::ours, §III.A):
+///  1. data collection: the robot continues the pull-up from B along the tilted lift line A'B to M
+///     (Alg. 2 puts M on that line at the working distance from T) and stops there shortly: view 1 is
+///     triggered at rest with an exact pose read (the reference, §III.B.2). It then follows the arc
+///     M→N at speed v, triggering views 2..n at interval t and reading the kinematics at each trigger
+///     (late: the robot is moving);
+///  2. data processing, in a worker thread, while the robot follows the dropping path N→C: read the n
+///     frames (transfer), stereo depth, fusion with ICP and voting (Alg. 1), 6D pose estimation, choice
+///     of the object to grasp, and planning of the grasp path, the next sensing path (Eq. 1 over the
+///     *remaining* objects, Alg. 2) and the next dropping path. At C the part is released; the robot
+///     waits only if processing is not done yet;
+///  3. grasp: C → above the grasp pose → grasp (A) → lift to the next pull-up point B.
+/// The first cycle uses a predefined path (Alg. 2 aimed at the bin centre from a home point above
+/// it). When nothing is recognized (or no grasp is reachable) the next cycle runs the *search move*:
+/// from the home point, an arc over the bin centre with `search_beta_factor` × β coverage — a wider
+/// look — counted in CycleResult::search.
+///
+/// Baselines (§IV.D): `single_view` (A) is ours with n = 1; `random_path` (B) aims each sensing path
+/// at a random point of the bin instead of Eq. 1; `stop_and_go` (C) is the conventional cell of Robot
+/// Fusion [12]: drop first (B→C direct), then approach the bin and stop at each of n predefined views
+/// (exact poses), process serially while the robot waits, then grasp.
+///
+/// Degenerate sensing paths (Alg. 2 returns a status, about 6 % of realistic plans): the fallbacks, in
+/// order, are (1) β/2 with the same n, (2) the target moved to the bin centre, (3) the predefined path.
+/// CycleResult::path_source says which one ran.
+///
+/// Time: every duration is read from the Clock. Hardware durations a simulation cannot produce
+/// (image transfer, stereo depth per view) come from `takt` when `model_hardware_time` is set; fusion
+/// with ICP, estimation and planning are measured (steady clock) and added to the Clock time at which
+/// processing started, so a simulated cell accounts for them as a real one would.
+///
+/// Failures: an exception from a driver, a pose read that is not a rigid finite pose, or fewer frames
+/// read back than triggered end the cycle with a status and a message. The pipeline then drains the
+/// sensor memory, waits for the robot to stop, returns it to the home point and falls back to the
+/// predefined path; the part in hand (if any) is still held and is dropped by the next cycle.
+/// The worker thread is always joined before run_cycle returns. The library never prints.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <exception>
+#include <future>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "binpick/active_vision/sensing_path.hpp"
+#include "binpick/active_vision/target_center.hpp"
+#include "binpick/core/errors.hpp"
+#include "binpick/core/pose.hpp"
+#include "binpick/cycle/drivers.hpp"
+#include "binpick/cycle/gripper.hpp"
+#include "binpick/cycle/takt.hpp"
+#include "binpick/fusion/fuse.hpp"
+
+namespace binpick::cycle {
+
+/// How the sensing of a cycle is done (ours and the paper's baselines, §IV.D).
+enum class Strategy {
+  ours,         ///< multi-view + active vision, sensing parallel to the place action
+  single_view,  ///< baseline A: one view + active vision
+  random_path,  ///< baseline B: multi-view along a sensing path aimed at a random point of the bin
+  stop_and_go,  ///< baseline C: Robot Fusion [12]: stop at each predefined view, process, then grasp
+};
+
+inline const char* to_string(Strategy s) {
+  switch (s) {
+    case Strategy::ours: return "ours";
+    case Strategy::single_view: return "A";
+    case Strategy::random_path: return "B";
+    case Strategy::stop_and_go: return "C";
+  }
+  return "unknown";
+}
+
+/// Settings of the cycle. Units: metres, radians, seconds; speeds in percent of full speed.
+template <typename Scalar>
+struct PipelineSettings {
+  Strategy strategy = Strategy::ours;
+  // Sensing parameters (Table III, "Sensing Parameters"; determine them with §III.D.2).
+  int num_views = 4;                        ///< n views (forced to 1 for single_view)
+  double interval = 0.030;                  ///< t between triggers [s]
+  Scalar sensing_speed_percent = Scalar(80);  ///< v along the sensing path [%] (100 % ≈ full_speed)
+  Scalar gamma = Scalar(5 * M_PI / 180);    ///< γ of Alg. 2 [rad]
+  Scalar working_distance = Scalar(0.30);   ///< r, radius of the sphere S [m]
+  Scalar min_elevation = Scalar(0);         ///< lowest sensor elevation over T along the arc [rad]
+  Scalar search_beta_factor = Scalar(2);    ///< the search arc covers this × β [-]
+  // Motion.
+  Scalar motion_speed_percent = Scalar(80);  ///< lift, drop, return [%]
+  Scalar grasp_speed_percent = Scalar(30);   ///< the last approach to the grasp pose [%]
+  Scalar full_speed = Scalar(1.0);           ///< flange speed at 100 % [m/s] (nominal; prices the direct B→C move)
+  Scalar full_angular_speed = Scalar(M_PI);  ///< flange rotation speed at 100 % [rad/s] (nominal)
+  double stop_time = 0.003;                  ///< standstill at a stop for a view [s] (one exposure)
+  // Cell layout (robot base frame).
+  Isometry3<Scalar> T_flange_camera = default_hand_eye();  ///< hand-eye: camera pose in the flange frame
+  Vector3<Scalar> bin_center = Vector3<Scalar>::Zero();   ///< centre of the bin floor [m]
+  Scalar bin_length = Scalar(0.50);        ///< inner size along base x [m]
+  Scalar bin_width = Scalar(0.25);         ///< inner size along base y [m]
+  Scalar bin_height = Scalar(0.10);        ///< wall height [m]
+  Scalar lift_clearance = Scalar(0.05);    ///< pull-up point B above the wall top [m]
+  Scalar approach_distance = Scalar(0.05); ///< pre-grasp pose this far back along the approach [m]
+  Isometry3<Scalar> T_base_drop = default_drop();  ///< flange pose at the drop point C
+  Scalar max_approach_tilt = Scalar(1.05); ///< grasps whose approach deviates more from straight down are skipped [rad]
+  // Processing.
+  TaktSettings takt;                       ///< Table I constants; hardware durations of the cell
+  bool model_hardware_time = true;         ///< add transfer and stereo depth time from `takt` (simulated sensors)
+  FusionSettings<Scalar> fusion = default_fusion();  ///< sensor_accuracy is replaced by the sensor's
+  std::uint64_t seed = 1;                  ///< random target points of random_path
+  bool keep_images = false;                ///< keep the fused depth and votes in the CycleResult
+
+  /// Camera 10 cm behind the tool point along the approach and 5 cm aside, looking along it.
+  static Isometry3<Scalar> default_hand_eye() {
+    Isometry3<Scalar> T = Isometry3<Scalar>::Identity();
+    T.translation() = Vector3<Scalar>(Scalar(0.05), Scalar(0), Scalar(-0.10));
+    return T;
+  }
+  /// The drop point C beside the bin (about 1 m away, as a place action of ~1.2 s at 80 %), tool down.
+  static Isometry3<Scalar> default_drop() {
+    Isometry3<Scalar> T = Isometry3<Scalar>::Identity();
+    T.linear() = Eigen::AngleAxis<Scalar>(Scalar(M_PI), Vector3<Scalar>::UnitX()).toRotationMatrix();
+    T.translation() = Vector3<Scalar>(Scalar(0.15), Scalar(0.95), Scalar(0.30));
+    return T;
+  }
+  static FusionSettings<Scalar> default_fusion() {
+    FusionSettings<Scalar> f;
+    f.compute_votes = true;
+    return f;
+  }
+};
+
+enum class CycleStatus {
+  picked,              ///< a part was grasped and lifted
+  grasp_failed,        ///< the gripper closed on nothing
+  nothing_recognized,  ///< no object (or no reachable grasp): the next cycle runs the search move
+  sensor_failure,      ///< a trigger threw or a frame never arrived
+  robot_failure,       ///< a motion or a pose read failed
+  processing_failure,  ///< fusion, estimation or planning threw or returned invalid input
+};
+
+inline const char* to_string(CycleStatus s) {
+  switch (s) {
+    case CycleStatus::picked: return "picked";
+    case CycleStatus::grasp_failed: return "grasp_failed";
+    case CycleStatus::nothing_recognized: return "nothing_recognized";
+    case CycleStatus::sensor_failure: return "sensor_failure";
+    case CycleStatus::robot_failure: return "robot_failure";
+    case CycleStatus::processing_failure: return "processing_failure";
+  }
+  return "unknown";
+}
+
+/// Where a cycle's sensing path came from.
+enum class PathSource {
+  predefined,           ///< the first cycle, or after a failure
+  planned,              ///< Alg. 2 as planned by the previous cycle
+  fallback_half_beta,   ///< Alg. 2 was degenerate; β/2 worked
+  fallback_bin_center,  ///< … the target moved to the bin centre worked
+  fallback_predefined,  ///< … the predefined path was used
+  search,               ///< the search move (nothing recognized before)
+  fixed_views,          ///< stop-and-go: the predefined views
+};
+
+inline const char* to_string(PathSource s) {
+  switch (s) {
+    case PathSource::predefined: return "predefined";
+    case PathSource::planned: return "planned";
+    case PathSource::fallback_half_beta: return "fallback_half_beta";
+    case PathSource::fallback_bin_center: return "fallback_bin_center";
+    case PathSource::fallback_predefined: return "fallback_predefined";
+    case PathSource::search: return "search";
+    case PathSource::fixed_views: return "fixed_views";
+  }
+  return "unknown";
+}
+
+/// Everything one cycle did.
+template <typename Scalar>
+struct CycleResult {
+  CycleStatus status = CycleStatus::nothing_recognized;
+  std::string error;             ///< what failed (empty unless a failure status)
+  int index = 0;                 ///< cycle number of this pipeline, from 0
+  bool placed = false;           ///< a part was released at C in this cycle
+  bool search = false;           ///< this cycle ran the search move
+  int views = 0;                 ///< views fused
+  int recognized = 0;            ///< objects the estimator returned
+  PathSource path_source = PathSource::predefined;  ///< this cycle's sensing path
+  active_vision::SensingPathStatus next_plan_status = active_vision::SensingPathStatus::ok;  ///< Alg. 2 for the next cycle
+  Timeline timeline;             ///< robot segments, captures and processing stages (Clock time)
+  CycleTakt takt;
+  double fusion_ms = 0;          ///< measured: reprojection, ICP, voting
+  double estimation_ms = 0;      ///< measured
+  double planning_ms = 0;        ///< measured: grasp choice, Eq. 1, Alg. 2, paths
+  // Geometry of the cycle (base frame), e.g. for drawing.
+  Vector3<Scalar> target = Vector3<Scalar>::Zero();         ///< T of this cycle's path
+  Vector3<Scalar> pull_up = Vector3<Scalar>::Zero();        ///< camera position at the start B
+  Vector3<Scalar> drop = Vector3<Scalar>::Zero();           ///< flange position at C
+  std::vector<Isometry3<Scalar>> T_base_captures_planned;   ///< camera poses of the path
+  std::vector<Isometry3<Scalar>> T_base_captures_read;      ///< camera poses from the kinematics reads
+  std::vector<Vector3<Scalar>> objects_base;                ///< recognized object positions
+  Isometry3<Scalar> T_base_grasp = Isometry3<Scalar>::Identity();  ///< chosen grasp (when any)
+  // With settings.keep_images:
+  DepthImage<Scalar> fused_depth;                           ///< fused depth of view 1 [m]
+  std::vector<std::uint8_t> votes;                          ///< votes per pixel, row-major
+};
+
+namespace detail {
+
+inline std::uint64_t splitmix64(std::uint64_t& x) {
+  std::uint64_t z = (x += 0x9E3779B97F4A7C15ULL);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+inline double uniform01(std::uint64_t& x) { return double(splitmix64(x) >> 11) * (1.0 / 9007199254740992.0); }
+
+template <typename Scalar>
+bool is_rigid_finite(const Isometry3<Scalar>& T) {
+  if (!T.matrix().allFinite()) return false;
+  const Matrix3<Scalar> R = T.linear();
+  const Scalar tol = std::is_same<Scalar, float>::value ? Scalar(1e-3) : Scalar(1e-8);
+  return (R.transpose() * R - Matrix3<Scalar>::Identity()).cwiseAbs().maxCoeff() < tol && R.determinant() > 0;
+}
+
+/// The camera pose `T` re-rolled about its optical axis so that its x axis is as close as possible to
+/// `x_ref`: fusion and Alg. 2 need only position and view direction, and keeping the roll of the
+/// camera at B spares the wrist a turn.
+template <typename Scalar>
+Isometry3<Scalar> with_roll_near(const Isometry3<Scalar>& T, const Vector3<Scalar>& x_ref) {
+  const Vector3<Scalar> z = T.linear().col(2);
+  Vector3<Scalar> x = x_ref - x_ref.dot(z) * z;
+  if (!(x.norm() > Scalar(1e-3))) return T;
+  x.normalize();
+  Isometry3<Scalar> out = T;
+  out.linear().col(0) = x;
+  out.linear().col(1) = z.cross(x);
+  out.linear().col(2) = z;
+  return out;
+}
+
+}  // namespace detail
+
+/// The cycle of Fig. 2 (see the file comment). Robot, Sensor, Estimator, Clock and Gripper model the
+/// concepts of drivers.hpp and gripper.hpp; the scalar and camera of the library side are the
+/// sensor's. Drivers are referenced, not owned; the clock must be the one the drivers stamp with.
+template <typename Robot, typename Sensor, typename Estimator, typename Clock, typename Gripper>
+class PickingPipeline {
+  static_assert(is_robot_driver<Robot>::value, "Robot must model RobotDriver (drivers_robot.hpp)");
+  static_assert(is_sensor_driver<Sensor>::value, "Sensor must model SensorDriver (drivers_sensor.hpp)");
+  static_assert(is_pose_estimator<Estimator>::value, "Estimator must model PoseEstimator (drivers_estimator.hpp)");
+  static_assert(is_clock<Clock>::value, "Clock must model Clock (drivers_clock.hpp)");
+  static_assert(is_gripper<Gripper>::value, "Gripper must model Gripper (gripper.hpp)");
+
+ public:
+  using Scalar = typename Sensor::Scalar;
+  using Camera = typename Sensor::Camera;
+  using RobotScalar = typename Robot::Scalar;
+  using Pose = Isometry3<Scalar>;
+  using Vec3 = Vector3<Scalar>;
+  static_assert(std::is_same<typename Estimator::Scalar, Scalar>::value && std::is_same<typename Estimator::Camera, Camera>::value,
+                "the estimator must take the sensor's scalar and camera");
+
+  /// Throws std::invalid_argument naming the setting that is out of range, or `settings` when the
+  /// layout admits no predefined sensing path. The robot should stand still; the first cycle moves it
+  /// to the home point above the bin.
+  PickingPipeline(Robot& robot, Sensor& sensor, Estimator& estimator, Clock& clock, Gripper& gripper,
+                  const PipelineSettings<Scalar>& settings)
+      : robot_(&robot), sensor_(&sensor), estimator_(&estimator), clock_(&clock), gripper_(&gripper), s_(settings),
+        fuser_(sensor.camera()), rng_(settings.seed) {
+    const auto& s = settings;
+    require(s.num_views >= 1 && s.num_views <= 64, "num_views", "must be in [1, 64]");
+    require(std::isfinite(s.interval) && s.interval > 0, "interval", "must be finite and > 0");
+    for (Scalar p : {s.sensing_speed_percent, s.motion_speed_percent, s.grasp_speed_percent})
+      require(std::isfinite(p) && p > 0 && p <= 100, "speed_percent", "speeds must be in (0, 100]");
+    require(std::isfinite(s.full_speed) && s.full_speed > 0, "full_speed", "must be finite and > 0");
+    require(std::isfinite(s.full_angular_speed) && s.full_angular_speed > 0, "full_angular_speed", "must be finite and > 0");
+    require(std::isfinite(s.working_distance) && s.working_distance > 0, "working_distance", "must be finite and > 0");
+    require(std::isfinite(s.search_beta_factor) && s.search_beta_factor >= 1, "search_beta_factor", "must be >= 1");
+    require(std::isfinite(s.stop_time) && s.stop_time >= 0, "stop_time", "must be finite and >= 0");
+    require(std::isfinite(s.lift_clearance) && s.lift_clearance >= 0, "lift_clearance", "must be finite and >= 0");
+    require(std::isfinite(s.approach_distance) && s.approach_distance >= 0, "approach_distance", "must be finite and >= 0");
+    require(s.bin_length > 0 && s.bin_width > 0 && s.bin_height > 0, "bin_length", "bin sizes must be > 0");
+    require_all_finite(s.bin_center, "bin_center");
+    require_valid_pose(s.T_flange_camera, "T_flange_camera");
+    require_valid_pose(s.T_base_drop, "T_base_drop");
+    sensing_scheme_time(1, s.interval, s.takt);  // validates the takt constants
+    if (s.strategy == Strategy::single_view) s_.num_views = 1;
+    n_ = s_.num_views;
+    beta_ = beta_from_motion(n_);
+    T_home_ = Pose::Identity();
+    T_home_.linear() = Eigen::AngleAxis<Scalar>(Scalar(M_PI), Vec3::UnitX()).toRotationMatrix();
+    T_home_.translation() = s_.bin_center + Vec3(0, 0, s_.bin_height + s_.lift_clearance);
+    predefined_ = home_path(beta_, PathSource::predefined);
+    require(!predefined_.T_base_cameras.empty(), "settings", "the cell layout admits no predefined sensing path");
+    search_ = home_path(std::min(Scalar(M_PI / 2), beta_ * s_.search_beta_factor), PathSource::search);
+    if (search_.T_base_cameras.empty()) search_ = predefined_;
+    next_ = predefined_;
+  }
+
+  const PipelineSettings<Scalar>& settings() const { return s_; }
+  bool holding() const { return holding_; }
+  /// β of the sensing path: the arc v·t·(n − 1) seen from T at the working distance [rad].
+  Scalar beta() const { return beta_; }
+  /// Flange pose of the home point above the bin centre (start of the first cycle and of searches).
+  const Pose& T_base_home() const { return T_home_; }
+  int searches() const { return searches_; }
+
+  /// One cycle (file comment). Never throws for driver failures: they are a status.
+  CycleResult<Scalar> run_cycle() {
+    CycleResult<Scalar> r;
+    r.index = cycles_++;
+    r.drop = s_.T_base_drop.translation();
+    try {
+      if (first_) {
+        // Bring the robot to the home point (not part of any cycle's takt).
+        const double arrival = robot_->move_along({cast_robot(T_home_)}, RobotScalar(s_.motion_speed_percent));
+        clock_->sleep_until(arrival);
+        first_ = false;
+        T_at_ = T_home_;
+      }
+      if (s_.strategy == Strategy::stop_and_go)
+        run_stop_and_go(r);
+      else
+        run_nonstop(r);
+    } catch (const CycleFailure& f) {
+      fail(r, f.status, f.what());
+    } catch (const std::exception& e) {
+      fail(r, CycleStatus::robot_failure, std::string("robot: ") + e.what());
+    }
+    return r;
+  }
+
+ private:
+  struct Plan {
+    std::vector<Pose> T_base_cameras;  // capture poses (camera), n of them
+    Vec3 target = Vec3::Zero();
+    PathSource source = PathSource::predefined;
+    active_vision::SensingPathStatus status = active_vision::SensingPathStatus::ok;
+  };
+  struct CycleFailure : std::runtime_error {
+    CycleFailure(CycleStatus s, const std::string& what) : std::runtime_error(what), status(s) {}
+    CycleStatus status;
+  };
+  struct Capture {
+    std::vector<Pose> T_base_cameras_read;
+    std::vector<double> trigger_times;
+  };
+  struct Processed {
+    bool ok = false;
+    CycleStatus status = CycleStatus::nothing_recognized;
+    std::string error;
+    int views = 0;
+    int recognized = 0;
+    bool has_grasp = false;
+    Pose T_base_grasp = Pose::Identity();
+    GripperKind gripper = GripperKind::two_finger;
+    Plan next;
+    active_vision::SensingPathStatus plan_status = active_vision::SensingPathStatus::ok;
+    std::vector<Vec3> objects_base;
+    double read_s = 0, fusion_s = 0, estimation_s = 0, planning_s = 0;  // measured wall time
+    DepthImage<Scalar> fused;
+    std::vector<std::uint8_t> votes;
+  };
+
+  static double seconds_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  static Isometry3<RobotScalar> cast_robot(const Pose& T) { return T.template cast<RobotScalar>(); }
+  static Pose cast_lib(const Isometry3<RobotScalar>& T) { return T.template cast<Scalar>(); }
+  Pose flange_of_camera(const Pose& T_base_camera) const {
+    return T_base_camera * s_.T_flange_camera.inverse(Eigen::Isometry);
+  }
+  Pose camera_of_flange(const Pose& T_base_flange) const { return camera_pose_in_base(T_base_flange, s_.T_flange_camera); }
+
+  Scalar beta_from_motion(int n) const {
+    // Arc length v·t·(n − 1) at the working distance (T in P, §III.D.1): β = v t (n − 1) / r.
+    const Scalar v = s_.full_speed * s_.sensing_speed_percent / Scalar(100);
+    const Scalar b = v * Scalar(s_.interval) * Scalar(std::max(1, n - 1)) / s_.working_distance;
+    return std::min(Scalar(M_PI / 2), std::max(Scalar(1e-3), b));
+  }
+
+  /// Nominal time of a straight move (the same model as the robot's constant-speed segments).
+  double move_time(const Pose& a, const Pose& b, Scalar percent) const {
+    const Scalar v = s_.full_speed * percent / Scalar(100), w = s_.full_angular_speed * percent / Scalar(100);
+    return std::max(double((b.translation() - a.translation()).norm() / v),
+                    double(rotation_angle<Scalar>(relative_pose(a, b)) / w));
+  }
+
+  /// Alg. 2 for grasp A, pull-up flange pose at B and target T, with the roll of the camera at B.
+  active_vision::SensingPath<Scalar> alg2(const Vec3& target, const Vec3& A, const Pose& T_base_B, Scalar beta) const {
+    const Pose cam_B = camera_of_flange(T_base_B);
+    const Vec3 d = cam_B.translation() - T_base_B.translation();  // all points as camera positions
+    const Vec3 C = s_.T_base_drop.translation() + d;
+    return active_vision::plan_sensing_path<Scalar>(target, s_.working_distance, A + d, cam_B.translation(), C, s_.gamma,
+                                                    beta, std::max(2, n_), s_.min_elevation);
+  }
+
+  Plan to_plan(const active_vision::SensingPath<Scalar>& path, const Pose& T_base_B, const Vec3& target,
+               PathSource source) const {
+    Plan p;
+    p.target = target;
+    p.source = source;
+    p.status = path.status;
+    if (!path.ok()) return p;
+    const Vec3 x_ref = camera_of_flange(T_base_B).linear().col(0);
+    for (int i = 0; i < n_; ++i) p.T_base_cameras.push_back(detail::with_roll_near(path.T_base_captures[std::size_t(i)], x_ref));
+    return p;
+  }
+
+  Vec3 default_target() const { return s_.bin_center + Vec3(0, 0, Scalar(0.01)); }
+
+  Plan home_path(Scalar beta, PathSource source) const {
+    const Vec3 A = s_.bin_center;
+    return to_plan(alg2(default_target(), A, T_home_, beta), T_home_, default_target(), source);
+  }
+
+  /// Alg. 2 with the documented fallbacks (file comment).
+  Plan plan_with_fallbacks(const Vec3& target, const Vec3& A, const Pose& T_base_B) const {
+    const auto path = alg2(target, A, T_base_B, beta_);
+    if (path.ok()) return to_plan(path, T_base_B, target, PathSource::planned);
+    Plan p = to_plan(alg2(target, A, T_base_B, beta_ / 2), T_base_B, target, PathSource::fallback_half_beta);
+    if (p.T_base_cameras.empty())
+      p = to_plan(alg2(default_target(), A, T_base_B, beta_), T_base_B, default_target(), PathSource::fallback_bin_center);
+    if (p.T_base_cameras.empty()) {
+      p = predefined_;
+      p.source = PathSource::fallback_predefined;
+    }
+    p.status = path.status;
+    return p;
+  }
+
+  /// Trigger a view now and read the kinematics (exact at rest, late in motion).
+  void capture(Capture& cap, Timeline& tl) {
+    double t = 0;
+    try {
+      t = sensor_->trigger();
+    } catch (const std::exception& e) {
+      throw CycleFailure(CycleStatus::sensor_failure, std::string("sensor: trigger of view ") +
+                                                          std::to_string(cap.trigger_times.size() + 1) + " failed: " + e.what());
+    }
+    StampedPose<RobotScalar> read;
+    try {
+      read = robot_->read_flange_pose();
+    } catch (const std::exception& e) {
+      throw CycleFailure(CycleStatus::robot_failure, std::string("robot: pose read of view ") +
+                                                         std::to_string(cap.trigger_times.size() + 1) + " failed: " + e.what());
+    }
+    if (!detail::is_rigid_finite(read.T_base_flange))
+      throw CycleFailure(CycleStatus::robot_failure, "robot: pose read of view " + std::to_string(cap.trigger_times.size() + 1) +
+                                                         " is not a rigid finite pose");
+    const std::size_t k = cap.trigger_times.size() + 1;
+    tl.add("exposure " + std::to_string(k), Lane::capture, t, t + s_.takt.exposure);
+    tl.add("kinematics " + std::to_string(k), Lane::capture, read.time, read.time + s_.takt.kinematics);
+    cap.trigger_times.push_back(t);
+    cap.T_base_cameras_read.push_back(camera_of_flange(cast_lib(read.T_base_flange)));
+  }
+
+  /// Move and wait for arrival; returns the arrival time. Records a robot segment.
+  double move(const std::vector<Pose>& path, Scalar percent, const std::string& name, Timeline& tl) {
+    const double t0 = clock_->now();
+    std::vector<Isometry3<RobotScalar>> rp;
+    for (const auto& p : path) rp.push_back(cast_robot(p));
+    const double arrival = robot_->move_along(rp, RobotScalar(percent));
+    clock_->sleep_until(arrival);
+    tl.add(name, Lane::robot, t0, clock_->now());
+    T_at_ = path.back();
+    return clock_->now();
+  }
+
+  /// The data processing phase (runs in the worker thread; touches only the sensor, fuser, estimator).
+  Processed process(const Capture& cap, std::size_t triggered) {
+    Processed out;
+    using clk = std::chrono::steady_clock;
+    try {
+      auto t0 = clk::now();
+      std::vector<DepthFrame<Scalar>> frames = sensor_->read_frames();
+      out.read_s = seconds_since(t0);
+      if (frames.size() != triggered) {
+        out.status = CycleStatus::sensor_failure;
+        out.error = "sensor: read " + std::to_string(frames.size()) + " frames, expected " + std::to_string(triggered) +
+                    (frames.size() < triggered ? " (frame " + std::to_string(frames.size() + 1) + " never arrived)" : "");
+        return out;
+      }
+      t0 = clk::now();
+      std::vector<DepthImageView<Scalar>> views;
+      for (const auto& f : frames) views.push_back(f.depth.view());
+      FusionSettings<Scalar> fs = s_.fusion;
+      fs.sensor_accuracy = sensor_->accuracy();
+      FusionResult<Scalar> fused = fuser_.fuse(views, cap.T_base_cameras_read, fs);
+      out.fusion_s = seconds_since(t0);
+      out.views = int(views.size());
+
+      t0 = clk::now();
+      EstimatorInput<Scalar, Camera> in;
+      in.depth = fused.depth.view();
+      in.votes = fused.votes.votes.empty() ? nullptr : fused.votes.votes.data();
+      in.camera = &sensor_->camera();
+      EstimationResult<Scalar> est = estimator_->estimate(in);
+      out.estimation_s = seconds_since(t0);
+      if (est.status == EstimationStatus::invalid_input) {
+        out.status = CycleStatus::processing_failure;
+        out.error = "estimator: invalid input";
+        return out;
+      }
+
+      t0 = clk::now();
+      plan(fused.T_base_target, est, out);
+      out.planning_s = seconds_since(t0);
+      if (s_.keep_images) {
+        out.fused = std::move(fused.depth);
+        out.votes = std::move(fused.votes.votes);
+      }
+      out.ok = true;
+    } catch (const std::exception& e) {
+      out.status = CycleStatus::processing_failure;
+      out.error = std::string("processing: ") + e.what();
+    }
+    return out;
+  }
+
+  /// Choose the object to grasp, and plan the grasp and the next sensing path (Eq. 1, Alg. 2).
+  void plan(const Pose& T_base_ref, const EstimationResult<Scalar>& est, Processed& out) {
+    out.recognized = int(est.objects.size());
+    std::vector<Vec3> positions;
+    std::vector<Scalar> confidences;
+    for (const auto& o : est.objects) {
+      positions.push_back(T_base_ref * o.T_camera_object.translation());
+      confidences.push_back(std::max(Scalar(0), o.confidence_percent));
+    }
+    out.objects_base = positions;
+    // The most confident object whose approach is within the tilt limit (objects come sorted).
+    std::size_t chosen = active_vision::no_grasped_object;
+    for (std::size_t k = 0; k < est.objects.size(); ++k) {
+      const Pose T = T_base_ref * est.objects[k].T_camera_grasp;
+      if (!detail::is_rigid_finite(T)) continue;
+      const Scalar down = -T.linear().col(2).z();
+      if (down >= std::cos(s_.max_approach_tilt)) {
+        chosen = k;
+        out.T_base_grasp = T;
+        out.gripper = est.objects[k].gripper;
+        break;
+      }
+    }
+    if (chosen == active_vision::no_grasped_object) {
+      out.has_grasp = false;
+      out.status = CycleStatus::nothing_recognized;
+      out.next = search_;
+      return;
+    }
+    out.has_grasp = true;
+    out.status = CycleStatus::picked;
+    // Next pull-up point B: vertically above A at the clearance over the wall top (§III.C.2).
+    const Vec3 A = out.T_base_grasp.translation();
+    Pose T_B = out.T_base_grasp;
+    T_B.translation().z() = std::max(A.z() + Scalar(0.02), s_.bin_center.z() + s_.bin_height + s_.lift_clearance);
+    Vec3 target;
+    if (s_.strategy == Strategy::random_path) {
+      // Baseline B: a random point of the bin floor area (not Eq. 1).
+      const Scalar u = Scalar(detail::uniform01(rng_) - 0.5), w = Scalar(detail::uniform01(rng_) - 0.5);
+      target = s_.bin_center + Vec3(u * s_.bin_length * Scalar(0.8), w * s_.bin_width * Scalar(0.8), Scalar(0.01));
+    } else {
+      target = active_vision::target_center<Scalar>(positions, confidences, default_target(), chosen).point;  // Eq. 1
+    }
+    out.next = plan_with_fallbacks(target, A, T_B);
+    out.plan_status = out.next.status;
+    next_B_ = T_B;
+  }
+
+  /// Records the processing stages from `t_start` and returns the Clock time processing ends.
+  double record_processing(const Processed& p, double t_start, std::size_t n, Timeline& tl, CycleResult<Scalar>& r) const {
+    double t = t_start;
+    auto stage = [&](const char* name, double d, bool measured) {
+      tl.add(name, Lane::processing, t, t + d, measured);
+      t += d;
+    };
+    if (s_.model_hardware_time) {
+      stage("transfer", s_.takt.transfer * double(n), false);
+      stage("stereo depth", s_.takt.stereo_depth * double(n), false);
+    } else {
+      stage("transfer", p.read_s, true);
+    }
+    stage("fusion+ICP", p.fusion_s, true);
+    stage("estimation", p.estimation_s, true);
+    stage("planning", p.planning_s, true);
+    r.fusion_ms = p.fusion_s * 1e3;
+    r.estimation_ms = p.estimation_s * 1e3;
+    r.planning_ms = p.planning_s * 1e3;
+    r.takt.processing = t - t_start;
+    r.takt.processing_compute = p.fusion_s + p.estimation_s + p.planning_s;
+    return t;
+  }
+
+  void take_processed(Processed& p, CycleResult<Scalar>& r) {
+    r.views = p.views;
+    r.recognized = p.recognized;
+    r.objects_base = p.objects_base;
+    r.next_plan_status = p.plan_status;
+    if (p.has_grasp) r.T_base_grasp = p.T_base_grasp;
+    if (s_.keep_images) {
+      r.fused_depth = std::move(p.fused);
+      r.votes = std::move(p.votes);
+    }
+  }
+
+  /// After processing: grasp (or search) and end at the next pull-up point.
+  void finish(Processed& p, CycleResult<Scalar>& r, Timeline& tl) {
+    if (!p.ok) throw CycleFailure(p.status, p.error);
+    if (!p.has_grasp) {
+      ++searches_;
+      next_ = search_;
+      move({T_home_}, s_.motion_speed_percent, "to home (search)", tl);
+      r.status = CycleStatus::nothing_recognized;
+      return;
+    }
+    Pose pre = p.T_base_grasp;
+    pre.translation() -= s_.approach_distance * p.T_base_grasp.linear().col(2);
+    const double t_appr0 = clock_->now();
+    move({pre}, s_.motion_speed_percent, "approach", tl);
+    approach_time_ = clock_->now() - t_appr0;
+    approach_from_ = pre;
+    move({p.T_base_grasp}, s_.grasp_speed_percent, "grasp", tl);
+    bool held = false;
+    try {
+      held = gripper_->grip(cast_robot(p.T_base_grasp), p.gripper);
+    } catch (const std::exception& e) {
+      throw CycleFailure(CycleStatus::robot_failure, std::string("gripper: ") + e.what());
+    }
+    move({pre, next_B_}, s_.motion_speed_percent, "lift A->B", tl);
+    holding_ = held;
+    next_ = p.next;
+    r.status = held ? CycleStatus::picked : CycleStatus::grasp_failed;
+  }
+
+  void run_nonstop(CycleResult<Scalar>& r) {
+    Timeline& tl = r.timeline;
+    const double t_start = clock_->now();
+    const Pose T_B = T_at_;
+    const bool holding_at_start = holding_;
+    Plan plan = next_;
+    r.path_source = plan.source;
+    r.search = plan.source == PathSource::search;
+    r.target = plan.target;
+    r.pull_up = camera_of_flange(T_B).translation();
+    r.T_base_captures_planned = plan.T_base_cameras;
+
+    // Data collection: B→M, stop, view 1 (exact), arc M→N with views 2..n at interval t (late reads).
+    Capture cap;
+    const Scalar v = s_.sensing_speed_percent;
+    move({flange_of_camera(plan.T_base_cameras[0])}, v, "sensing B->M", tl);
+    const double t_stop = clock_->now();
+    capture(cap, tl);
+    clock_->sleep_until(t_stop + s_.stop_time);
+    tl.add("stop M (view 1)", Lane::robot, t_stop, clock_->now());
+    if (n_ >= 2) {
+      std::vector<Pose> arc;
+      for (int i = 1; i < n_; ++i) arc.push_back(flange_of_camera(plan.T_base_cameras[std::size_t(i)]));
+      const double t0 = clock_->now();
+      std::vector<Isometry3<RobotScalar>> rp;
+      for (const auto& p : arc) rp.push_back(cast_robot(p));
+      double arrival = 0;
+      try {
+        arrival = robot_->move_along(rp, RobotScalar(v));
+      } catch (...) {
+        drain();
+        throw;
+      }
+      // Triggers every t; when the arc takes longer than (n - 1)·t (a wider search arc, or the wrist
+      // turn dominating), the triggers are spread over the whole arc instead so views stay on their poses.
+      const double step = std::max(s_.interval, (arrival - t0) / double(n_ - 1));
+      try {
+        for (int i = 1; i < n_; ++i) {
+          clock_->sleep_until(t0 + double(i) * step);
+          capture(cap, tl);
+        }
+      } catch (...) {
+        clock_->sleep_until(arrival);
+        drain();
+        throw;
+      }
+      clock_->sleep_until(arrival);
+      tl.add("sensing M->N", Lane::robot, t0, clock_->now());
+      T_at_ = arc.back();
+    }
+    r.T_base_captures_read = cap.T_base_cameras_read;
+    const double t_collect_end = cap.trigger_times.back() + s_.takt.exposure;
+
+    // Data processing in a worker thread while the robot drops the part (N→C).
+    const std::size_t triggered = cap.trigger_times.size();
+    std::future<Processed> worker = std::async(std::launch::async, [this, &cap, triggered] { return process(cap, triggered); });
+    double t_place_end = clock_->now();
+    if (holding_at_start) {
+      try {
+        t_place_end = move({s_.T_base_drop}, s_.motion_speed_percent, "drop N->C", tl);
+        gripper_->release();
+        holding_ = false;
+        r.placed = true;
+      } catch (...) {
+        worker.wait();  // never leave the worker running
+        drain();
+        throw;
+      }
+    }
+    Processed p = worker.get();
+    const double t_ready = record_processing(p, t_collect_end, triggered, tl, r);
+    take_processed(p, r);
+    const double t_wait0 = clock_->now();
+    clock_->sleep_until(t_ready);
+    if (clock_->now() > t_wait0) tl.add("wait for processing", Lane::robot, t_wait0, clock_->now());
+    r.takt.robot_wait = clock_->now() - t_wait0;
+    r.takt.detour = holding_at_start ? std::max(0.0, (t_place_end - t_start) - move_time(T_B, s_.T_base_drop, s_.motion_speed_percent))
+                                     : (t_place_end - t_start);
+    finish(p, r, tl);
+    r.takt.cycle_time = clock_->now() - t_start;
+  }
+
+  void run_stop_and_go(CycleResult<Scalar>& r) {
+    Timeline& tl = r.timeline;
+    const double t_start = clock_->now();
+    const Pose T_B = T_at_;
+    r.path_source = PathSource::fixed_views;
+    r.target = predefined_.target;
+    r.pull_up = camera_of_flange(T_B).translation();
+    r.T_base_captures_planned = predefined_.T_base_cameras;
+    double t_c = t_start;
+    if (holding_) {  // conventional order: place first (direct B→C)
+      t_c = move({s_.T_base_drop}, s_.motion_speed_percent, "drop B->C", tl);
+      gripper_->release();
+      holding_ = false;
+      r.placed = true;
+    }
+    const Pose T_from = T_at_;
+    // Approach: stop at each predefined view, trigger at rest (exact pose).
+    Capture cap;
+    try {
+      for (int i = 0; i < n_; ++i) {
+        move({flange_of_camera(predefined_.T_base_cameras[std::size_t(i)])}, s_.motion_speed_percent,
+             "to view " + std::to_string(i + 1), tl);
+        const double t_stop = clock_->now();
+        capture(cap, tl);
+        clock_->sleep_until(t_stop + s_.stop_time);
+        tl.add("stop view " + std::to_string(i + 1), Lane::robot, t_stop, clock_->now());
+      }
+    } catch (...) {
+      drain();
+      throw;
+    }
+    r.T_base_captures_read = cap.T_base_cameras_read;
+    const double t_views_end = clock_->now();
+    // Serial processing while the robot stands.
+    Processed p = process(cap, cap.trigger_times.size());
+    const double t_ready = record_processing(p, t_views_end, cap.trigger_times.size(), tl, r);
+    take_processed(p, r);
+    clock_->sleep_until(t_ready);
+    tl.add("wait for processing", Lane::robot, t_views_end, clock_->now());
+    r.takt.robot_wait = clock_->now() - t_views_end;
+    finish(p, r, tl);
+    // Sensing cost: the way through the views plus the way from the last view to the pre-grasp pose,
+    // beyond the direct move from where the views started to the pre-grasp pose.
+    const double direct = p.has_grasp ? move_time(T_from, approach_from_, s_.motion_speed_percent) : 0.0;
+    const double via_views = (t_views_end - t_c) + (p.has_grasp ? approach_time_ : 0.0);
+    r.takt.detour = std::max(0.0, via_views - direct);
+    r.takt.cycle_time = clock_->now() - t_start;
+  }
+
+  /// Leave the cell consistent after a failure (file comment).
+  void fail(CycleResult<Scalar>& r, CycleStatus status, const std::string& what) {
+    r.status = status;
+    r.error = what;
+    drain();
+    next_ = predefined_;
+    try {
+      for (int i = 0; i < 6000 && robot_->is_moving(); ++i) clock_->sleep_until(clock_->now() + 0.01);
+      move({T_home_}, s_.motion_speed_percent, "to home (recover)", r.timeline);
+    } catch (const std::exception& e) {
+      r.error += std::string("; robot: return to home failed: ") + e.what();
+    }
+  }
+
+  void drain() {
+    try {
+      if (sensor_->frames_in_memory() > 0) sensor_->read_frames();
+    } catch (...) {
+    }
+  }
+
+  Robot* robot_;
+  Sensor* sensor_;
+  Estimator* estimator_;
+  Clock* clock_;
+  Gripper* gripper_;
+  PipelineSettings<Scalar> s_;
+  Fuser<Scalar, Camera> fuser_;
+  std::uint64_t rng_;
+  int n_ = 1;
+  Scalar beta_ = 0;
+  Pose T_home_ = Pose::Identity();
+  Pose T_at_ = Pose::Identity();   // flange pose the robot stands at between cycles
+  Pose next_B_ = Pose::Identity();
+  Pose approach_from_ = Pose::Identity();
+  double approach_time_ = 0;
+  Plan predefined_, search_, next_;
+  bool first_ = true;
+  bool holding_ = false;
+  int cycles_ = 0;
+  int searches_ = 0;
+};
+
+}  // namespace binpick::cycle
