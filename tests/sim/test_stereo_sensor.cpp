@@ -259,3 +259,30 @@ TEST(StereoSensor, BadSettingsNameTheArgument) {
   bad.matrix()(0, 0) = 2;
   EXPECT_THROW(ok.render(Scene<float>(), bad, 0), std::invalid_argument);
 }
+
+TEST(StereoSensor, DoublePrecisionAgreesWithFloatOnThePlane) {
+  // The sensor is templated on the scalar; both render the same exact plane depth.
+  StereoSensorSettings<double> sd;
+  sd.width = 40;
+  sd.height = 32;
+  sd.errors.enabled = false;
+  StereoSensorSettings<float> sf;
+  sf.width = 40;
+  sf.height = 32;
+  sf.errors.enabled = false;
+  Isometry3d T = Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0.01, -0.02, 0.3);
+  const auto fd = StereoSensor<double>(sd).render(Scene<double>(), T, 0);
+  const auto ff = StereoSensor<float>(sf).render(Scene<float>(), T.cast<float>(), 0);
+  ASSERT_EQ(fd.valid_pixels, ff.valid_pixels);
+  std::size_t floor = 0;
+  for (std::size_t i = 0; i < fd.depth.storage().size(); ++i) {
+    if (std::abs(fd.depth.storage()[i] - 0.3) < 1e-3) {  // the floor (walls and table are elsewhere)
+      ++floor;
+      EXPECT_NEAR(fd.depth.storage()[i], 0.3, 1e-12);
+    }
+    EXPECT_NEAR(fd.depth.storage()[i], ff.depth.storage()[i], 1e-5);
+  }
+  EXPECT_GT(floor, 300u);  // of 40 × 32
+}
