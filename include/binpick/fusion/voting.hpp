@@ -128,9 +128,27 @@ void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_
   std::size_t j = begin;
   for (; j + std::size_t(P::size) <= end; j += std::size_t(P::size)) {
     V d[N];
+    V lo = vinf, hi = vzero, count = vzero;
     for (int k = 0; k < N; ++k) {
       const V v = P::load(planes[k] + j);
-      d[k] = P::select((v > vzero) & (v < vinf), v, vinf);
+      const auto valid = (v > vzero) & (v < vinf);
+      d[k] = P::select(valid, v, vinf);
+      lo = P::select(d[k] < lo, d[k], lo);
+      hi = P::select(valid & (v > hi), v, hi);
+      count = count + P::select(valid, vone, vzero);
+    }
+    // Common case: in every lane the valid depths span less than delta, so they form one candidate
+    // (each is within delta of the running mean, which lies between the smallest and itself). Its
+    // mean is taken as the minimum plus the mean of the exact differences to it, so it does not
+    // depend on the order of the views either.
+    if (P::all((hi - lo < vdelta) | (count == vzero))) {
+      V sum = vzero;
+      for (int k = 0; k < N; ++k) sum = sum + P::select(d[k] < vinf, d[k] - lo, vzero);
+      const V mean = lo + sum / P::select(count > vzero, count, vone);
+      P::store(out + j, P::select((count >= vmin) & (count > vzero), mean, vzero));
+      if (votes_out)
+        for (int l = 0; l < P::size; ++l) votes_out[j + std::size_t(l)] = std::uint8_t(count[l]);
+      continue;
     }
     for (int pass = 0; pass < N; ++pass)
       for (int k = pass & 1; k + 1 < N; k += 2) {

@@ -1,6 +1,6 @@
 #pragma once
 /// \file simd.hpp
-/// Portable 16-byte SIMD packs through the GCC/Clang vector extension (SSE2 on x86-64, NEON on ARM,
+/// Portable SIMD packs through the GCC/Clang vector extension (SSE2 on x86-64, NEON on ARM,
 /// scalar code elsewhere) — the baseline ISA only, so nothing depends on -march. Used where the
 /// auto-vectorizer gives up on select-heavy loops (conditional divisions count as control flow).
 
@@ -9,10 +9,19 @@
 namespace binpick {
 namespace detail {
 
+/// Pack width [bytes]: 16 at the baseline ISA; 32 when the translation unit is compiled for AVX2
+/// (opt-in, e.g. -march=x86-64-v3 or BINPICK_NATIVE_ARCH=ON), which also gives single-instruction
+/// blends.
+#if defined(__AVX2__)
+constexpr int kPackBytes = 32;
+#else
+constexpr int kPackBytes = 16;
+#endif
+
 template <typename Scalar>
 struct Pack {
-  static constexpr int size = int(16 / sizeof(Scalar));
-  typedef Scalar type __attribute__((vector_size(16)));
+  static constexpr int size = int(kPackBytes / sizeof(Scalar));
+  typedef Scalar type __attribute__((vector_size(kPackBytes)));
 
   static type load(const Scalar* p) {
     type v;
@@ -24,6 +33,13 @@ struct Pack {
     type v;
     for (int i = 0; i < size; ++i) v[i] = s;
     return v;
+  }
+  /// True when every lane of a comparison mask is set.
+  template <typename Mask>
+  static bool all(const Mask& mask) {
+    bool r = true;
+    for (int i = 0; i < size; ++i) r &= mask[i] != 0;
+    return r;
   }
   /// Lane-wise mask ? a : b (mask lanes are all-ones or zero, as comparisons produce).
   template <typename Mask>
