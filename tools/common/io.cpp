@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -34,8 +35,59 @@ std::string read_text_file(const std::string& path) {
   return ss.str();
 }
 
+namespace {
+std::uint32_t be32(const unsigned char* p) {
+  return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | std::uint32_t(p[3]);
+}
+
+// Largest depth image accepted [pixels]: 64 Mpx, far above any depth sensor, well below what
+// would exhaust memory.
+constexpr std::uint64_t kMaxPngPixels = std::uint64_t(1) << 26;
+
+// stb_image trusts the sizes a PNG declares: it grows its IDAT buffer to a chunk's stated length and
+// allocates width x height before it checks that the data exist, so a 90-byte file could make it
+// allocate 750 MB (found by fuzz_png16). Walk the chunk list first: every chunk must fit in the
+// file, the image must be at most kMaxPngPixels, and the compressed data must be able to hold it
+// (deflate expands at most ~1032:1). A leading empty IDAT chunk is refused too (see below).
+void check_png_structure(const unsigned char* b, std::size_t n, const std::string& name) {
+  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (n < 8 || std::memcmp(b, kSignature, 8) != 0) fail("'" + name + "': not a PNG file");
+  std::uint64_t width = 0, height = 0, bits_per_pixel = 0, idat_bytes = 0;
+  bool have_header = false;
+  for (std::size_t pos = 8; pos < n;) {
+    // A partial chunk header at the end is read by stb as a chunk too (zeros past the end).
+    if (n - pos < 12) fail("'" + name + "': PNG ends inside a chunk header (truncated)");
+    const std::uint64_t length = be32(b + pos);
+    if (length > n - pos - 12) fail("'" + name + "': a PNG chunk is longer than the file (truncated or corrupt)");
+    const unsigned char* type = b + pos + 4;
+    const unsigned char* payload = b + pos + 8;
+    if (std::memcmp(type, "IHDR", 4) == 0 && length >= 13) {
+      width = be32(payload);
+      height = be32(payload + 4);
+      const unsigned depth = payload[8], color = payload[9];
+      const unsigned channels = color == 2 ? 3 : color == 4 ? 2 : color == 6 ? 4 : 1;
+      bits_per_pixel = std::uint64_t(depth) * channels;
+      have_header = true;
+    } else if (std::memcmp(type, "IDAT", 4) == 0) {
+      // stb copies a first, empty IDAT through a null pointer (UB; found by fuzz_png16).
+      if (length == 0 && idat_bytes == 0) fail("'" + name + "': PNG starts its image data with an empty chunk");
+      idat_bytes += length;
+    }
+    pos += std::size_t(length) + 12;
+    if (std::memcmp(type, "IEND", 4) == 0) break;
+  }
+  if (!have_header) fail("'" + name + "': PNG without a header chunk");
+  if (width == 0 || height == 0 || width * height > kMaxPngPixels)
+    fail("'" + name + "': PNG size " + std::to_string(width) + "x" + std::to_string(height) +
+         " is empty or above the 64 Mpx limit");
+  const std::uint64_t min_raw_bytes = height * ((width * bits_per_pixel + 7) / 8);
+  if (idat_bytes * 1032 + 1024 < min_raw_bytes) fail("'" + name + "': PNG image data too short for its size");
+}
+}  // namespace
+
 Image16 decode_png16(const unsigned char* bytes, std::size_t size, const std::string& name) {
   if (size > std::size_t(std::numeric_limits<int>::max())) fail("'" + name + "': file too large");
+  check_png_structure(bytes, size, name);
   int w = 0, h = 0, channels = 0;
   stbi_us* data = stbi_load_16_from_memory(bytes, int(size), &w, &h, &channels, 1);
   if (!data) fail("'" + name + "': not a readable PNG (" + std::string(stbi_failure_reason()) + ")");
@@ -181,10 +233,11 @@ Eigen::Isometry3d read_pose_file(const std::string& path) { return parse_pose(re
 Intrinsics parse_intrinsics(const std::string& text) {
   const std::vector<double> v = parse_numbers(text, "--intrinsics");
   if (v.size() != 6) fail("'--intrinsics': expected fx,fy,cx,cy,width,height");
+  // Range-check before converting: casting a double outside int's range is UB (UBSan float-cast-overflow).
+  if (!(v[4] >= 1 && v[4] <= 1e5 && v[5] >= 1 && v[5] <= 1e5) || v[4] != std::floor(v[4]) || v[5] != std::floor(v[5]))
+    fail("'--intrinsics': width and height must be positive integers");
   Intrinsics k{v[0], v[1], v[2], v[3], int(v[4]), int(v[5])};
   if (!(k.fx > 0) || !(k.fy > 0)) fail("'--intrinsics': focal lengths must be > 0");
-  if (v[4] != double(k.width) || v[5] != double(k.height) || k.width <= 0 || k.height <= 0 || v[4] > 1e5 || v[5] > 1e5)
-    fail("'--intrinsics': width and height must be positive integers");
   return k;
 }
 
