@@ -1,0 +1,67 @@
+#pragma once
+/// \file align_depth_views.hpp
+/// The entry point for registering one depth view to another (paper §III.B.2: views 2..n are refined
+/// against view 1 with point-to-plane ICP, starting from their kinematic poses):
+/// \code
+///   // once per reference view
+///   auto target = binpick::make_projective_target(depth1, camera);          // normals from the image
+///   // per view i
+///   IcpResult<float> r = binpick::align_depth_view(depth_i, camera, target, T_1_i_kinematic, settings);
+///   if (r.ok()) T_1_i = r.T_target_source;                                  // else keep the prior
+/// \endcode
+/// or, in one call, `align_depth_views(source, source_camera, target, target_camera, T_init, settings)`.
+/// The source is every `settings.stride`-th row and column of the source image (stride 4 = 1/16 of the
+/// pixels); association is projective into the target image (window `ProjectiveAssociationSettings`),
+/// target normals come from the organized image (`OrganizedNormalSettings`).
+/// `T_target_source` maps points of the source camera frame into the target camera frame.
+
+#include "binpick/core/camera_model.hpp"
+#include "binpick/core/depth_image.hpp"
+#include "binpick/core/pose.hpp"
+#include "binpick/registration/icp.hpp"
+#include "binpick/registration/normals.hpp"
+#include "binpick/registration/point_cloud.hpp"
+#include "binpick/registration/projective_association.hpp"
+
+namespace binpick {
+
+/// The projective association of a target depth view: its organized cloud with normals.
+template <typename Scalar, typename Camera>
+ProjectiveAssociation<Scalar, Camera> make_projective_target(const DepthImageView<Scalar>& target_depth,
+                                                             const Camera& target_camera,
+                                                             const ProjectiveAssociationSettings& association = {},
+                                                             const OrganizedNormalSettings<Scalar>& normals = {}) {
+  OrganizedCloud<Scalar> cloud = backproject_organized(target_depth, target_camera);
+  estimate_organized_normals(cloud, normals);
+  return ProjectiveAssociation<Scalar, Camera>(std::move(cloud), target_camera, association);
+}
+
+/// Registers a source depth view to a prepared target (any association strategy). The stride of
+/// `settings` subsamples the source image's rows and columns; the source normals (used to reject
+/// pairs across creases and occlusion edges, `IcpSettings::max_normal_angle`) are estimated at full
+/// resolution at the kept pixels.
+template <typename Scalar, typename SourceCamera, typename Association>
+IcpResult<Scalar> align_depth_view(const DepthImageView<Scalar>& source_depth, const SourceCamera& source_camera,
+                                   const Association& target, const Isometry3<Scalar>& T_target_source_init,
+                                   const IcpSettings<Scalar>& settings = {},
+                                   const OrganizedNormalSettings<Scalar>& source_normals = {}) {
+  require(settings.stride >= 1, "stride", "must be >= 1");
+  const OrganizedCloud<Scalar> organized = backproject_organized(source_depth, source_camera);
+  IcpSettings<Scalar> s = settings;
+  s.stride = 1;  // applied to the image grid here
+  return icp(subsample_with_normals(organized, settings.stride, source_normals), target, T_target_source_init, s);
+}
+
+/// One call: builds the projective target from `target_depth` and registers `source_depth` to it.
+template <typename Scalar, typename SourceCamera, typename TargetCamera>
+IcpResult<Scalar> align_depth_views(const DepthImageView<Scalar>& source_depth, const SourceCamera& source_camera,
+                                    const DepthImageView<Scalar>& target_depth, const TargetCamera& target_camera,
+                                    const Isometry3<Scalar>& T_target_source_init,
+                                    const IcpSettings<Scalar>& settings = {},
+                                    const ProjectiveAssociationSettings& association = {},
+                                    const OrganizedNormalSettings<Scalar>& normals = {}) {
+  const auto target = make_projective_target(target_depth, target_camera, association, normals);
+  return align_depth_view(source_depth, source_camera, target, T_target_source_init, settings, normals);
+}
+
+}  // namespace binpick

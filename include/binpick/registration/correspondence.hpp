@@ -1,0 +1,48 @@
+#pragma once
+/// \file correspondence.hpp
+/// The data-association concept of ICP: given source points already mapped into the target frame,
+/// find each one's partner in the target. Two strategies ship:
+///  - `KnnAssociation` (knn_association.hpp): exact (or approximate) nearest neighbour in a FLANN
+///    kd-tree over any target cloud;
+///  - `ProjectiveAssociation` (projective_association.hpp): project into the target depth image and
+///    take the closest target point in a small pixel window — no tree, the fast path for depth images.
+///
+/// An association strategy is a type with these members (all const members must be safe to call
+/// concurrently; `associate` must give the same answer for any `num_threads`):
+/// \code
+/// struct MyAssociation {
+///   using Scalar = float;                                 // float or double
+///   // Target points [m] and normals (unit, or zero = unknown) in the target frame, by partner index.
+///   const Eigen::Matrix<Scalar, 3, 1>& target_point(std::ptrdiff_t i) const;
+///   const Eigen::Matrix<Scalar, 3, 1>& target_normal(std::ptrdiff_t i) const;  // only if has_target_normals()
+///   bool has_target_normals() const;
+///   // partners[i] = index of the partner of queries[i] within max_distance [m] (Euclidean), or -1.
+///   // queries are finite; partners is resized to queries.size().
+///   void associate(const std::vector<Eigen::Matrix<Scalar, 3, 1>>& queries, Scalar max_distance,
+///                  int num_threads, std::vector<std::ptrdiff_t>& partners) const;
+/// };
+/// \endcode
+/// `binpick::is_association<T>` checks the members at compile time.
+
+#include <cstddef>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace binpick {
+
+template <typename T, typename = void>
+struct is_association : std::false_type {};
+template <typename T>
+struct is_association<
+    T, std::void_t<typename T::Scalar, decltype(std::declval<const T&>().target_point(std::ptrdiff_t())),
+                   decltype(std::declval<const T&>().target_normal(std::ptrdiff_t())),
+                   decltype(bool(std::declval<const T&>().has_target_normals())),
+                   decltype(std::declval<const T&>().associate(
+                       std::declval<const std::vector<Eigen::Matrix<typename T::Scalar, 3, 1>>&>(),
+                       typename T::Scalar(), int(), std::declval<std::vector<std::ptrdiff_t>&>()))>>
+    : std::true_type {};
+
+}  // namespace binpick

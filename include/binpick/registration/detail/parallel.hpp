@@ -1,0 +1,77 @@
+#pragma once
+/// \file parallel.hpp
+/// The registration module's OpenMP seam: builds and runs without OpenMP. Every parallel call takes a
+/// `num_threads` (0 = all cores) passed to its own parallel region; process-wide OpenMP state is never
+/// changed. Reductions use one accumulator per thread over a fixed contiguous block of the index range,
+/// summed in thread order, so a result depends on the thread count only, never on scheduling.
+
+#include <cstddef>
+#include <vector>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "binpick/core/errors.hpp"
+
+namespace binpick {
+namespace registration_detail {
+
+/// Threads to use for a requested count (0 = all cores); 1 without OpenMP.
+inline int resolve_threads(int requested) {
+  require(requested >= 0, "num_threads", "must be >= 0 (0 = all cores)");
+#ifdef _OPENMP
+  return requested == 0 ? omp_get_num_procs() : requested;
+#else
+  (void)requested;
+  return 1;
+#endif
+}
+
+/// Calls f(i) for i in [0, n) on `threads` threads (independent iterations).
+template <typename F>
+void parallel_for(std::ptrdiff_t n, int threads, F&& f) {
+#ifdef _OPENMP
+  if (threads > 1 && n > 1024) {
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (std::ptrdiff_t i = 0; i < n; ++i) f(i);
+    return;
+  }
+#else
+  (void)threads;
+#endif
+  for (std::ptrdiff_t i = 0; i < n; ++i) f(i);
+}
+
+/// Deterministic reduction: thread t accumulates block [n t / T, n (t+1) / T) into its own copy of
+/// `zero` via f(acc, i); the copies are then merged in thread order with merge(total, acc).
+template <typename Acc, typename F, typename Merge>
+Acc parallel_reduce(std::ptrdiff_t n, int threads, const Acc& zero, F&& f, Merge&& merge) {
+#ifdef _OPENMP
+  if (threads > 1 && n > 1024) {
+    std::vector<Acc> parts(std::size_t(threads), zero);
+    int used = 1;
+#pragma omp parallel num_threads(threads)
+    {
+      const int t = omp_get_thread_num();
+      const int nt = omp_get_num_threads();
+#pragma omp single
+      used = nt;
+      const std::ptrdiff_t begin = n * t / nt, end = n * (t + 1) / nt;
+      Acc& acc = parts[std::size_t(t)];
+      for (std::ptrdiff_t i = begin; i < end; ++i) f(acc, i);
+    }
+    Acc total = zero;
+    for (int t = 0; t < used; ++t) merge(total, parts[std::size_t(t)]);
+    return total;
+  }
+#else
+  (void)threads;
+#endif
+  Acc total = zero;
+  for (std::ptrdiff_t i = 0; i < n; ++i) f(total, i);
+  return total;
+}
+
+}  // namespace registration_detail
+}  // namespace binpick

@@ -1,0 +1,389 @@
+#pragma once
+/// \file icp.hpp
+/// Iterative closest point: point-to-plane (Gauss–Newton on SE(3)) and point-to-point (closed form),
+/// templated on the scalar and on the data-association strategy (correspondence.hpp). The paper
+/// (§III.B.2, Fig. 3) refines the late, motion-corrupted poses of views 2..n against view 1 with
+/// point-to-plane ICP before voting; this is that step, also usable on its own.
+///
+/// One iteration (kiss-icp's shape: associate, build the linear system, solve):
+///  1. q_i = T p_i for the source points (every `stride`-th one);
+///  2. partners y_i (normals n_i) from the association, within `max_correspondence_distance`;
+///  3. point-to-plane: residual r_i = n_iᵀ(q_i − y_i), Jacobian J_i = [((q_i − c) × n_i)ᵀ, n_iᵀ] for a
+///     left update about the centroid c of the moved source (which decouples rotation and
+///     translation), robust IRLS weight w(r_i); normal equations H δ = −g with H = Σ w J Jᵀ (6×6),
+///     g = Σ w J r.  Point-to-point: weighted Kabsch/Umeyama (SVD of the cross-covariance).
+///  4. T ← ΔT T; stop when ΔT rotates less than `rotation_epsilon` and moves the source centroid
+///     less than `translation_epsilon`.
+/// Degeneracy (point-to-plane): H is scaled to unit mean diagonal per block (rotation, translation);
+/// eigen-directions whose eigenvalue is below `degeneracy_threshold` × the largest are unobservable
+/// (e.g. sliding on one plane) and the update is confined to the observable subspace, so those
+/// directions keep their initial value; the result then says `degenerate`.
+/// Sums are accumulated in double, one accumulator per thread over fixed blocks, merged in order:
+/// deterministic for a fixed thread count. Numerical failure is a status, never an exception.
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+
+#include "binpick/core/errors.hpp"
+#include "binpick/core/pose.hpp"
+#include "binpick/registration/correspondence.hpp"
+#include "binpick/registration/detail/parallel.hpp"
+#include "binpick/registration/point_cloud.hpp"
+
+namespace binpick {
+
+enum class IcpMethod { point_to_plane, point_to_point };
+enum class RobustKernel { none, huber, tukey };
+
+enum class IcpStatus {
+  converged,                ///< the update fell below both epsilons
+  max_iterations,           ///< stopped at max_iterations before converging (pose is the last iterate)
+  too_few_correspondences,  ///< fewer than min_correspondences partners (pose: last good iterate)
+  degenerate,               ///< some directions unobservable (e.g. one plane); they were not moved
+  diverged,                 ///< non-finite update or correction beyond the bounds (pose: the initial one)
+};
+
+inline const char* to_string(IcpStatus s) {
+  switch (s) {
+    case IcpStatus::converged: return "converged";
+    case IcpStatus::max_iterations: return "max_iterations";
+    case IcpStatus::too_few_correspondences: return "too_few_correspondences";
+    case IcpStatus::degenerate: return "degenerate";
+    default: return "diverged";
+  }
+}
+
+template <typename Scalar>
+struct IcpSettings {
+  IcpMethod method = IcpMethod::point_to_plane;
+  int max_iterations = 30;                           ///< >= 1
+  Scalar max_correspondence_distance = Scalar(0.02);  ///< [m] partners farther away are ignored, > 0
+  /// Tukey rejects gross outliers (occlusions, partners across depth edges) outright; Huber only
+  /// bounds their pull and suits large initial errors where most residuals are still large.
+  RobustKernel kernel = RobustKernel::tukey;
+  Scalar kernel_scale = Scalar(0.01);  ///< [m] Huber threshold / Tukey's c, > 0 (unused with none)
+  Scalar rotation_epsilon = Scalar(1e-5);     ///< [rad] convergence: update rotation below this ...
+  /// [m] ... and it moves the source centroid less than this (10 µm: below, partners flipping at
+  /// depth edges make the last digits oscillate rather than converge)
+  Scalar translation_epsilon = Scalar(1e-5);
+  int stride = 1;               ///< use every stride-th source point (>= 1)
+  /// [rad] With source normals, a pair whose normals (source rotated into the target) differ by more
+  /// than this is rejected, as are source points without a normal: partners across creases and
+  /// occlusion edges then cannot bias the pose. Ignored without source normals.
+  Scalar max_normal_angle = Scalar(0.25);
+  int min_correspondences = 6;  ///< fewer partners -> too_few_correspondences (never below 6)
+  /// Relative eigenvalue of the scaled normal equations below which a direction is unobservable.
+  Scalar degeneracy_threshold = Scalar(1e-4);
+  /// Bounds on the total correction (result relative to the initial pose); beyond -> diverged.
+  Scalar max_correction_translation = std::numeric_limits<Scalar>::infinity();  ///< [m]
+  Scalar max_correction_rotation = std::numeric_limits<Scalar>::infinity();     ///< [rad]
+  int num_threads = 0;  ///< 0 = all cores
+};
+
+template <typename Scalar>
+struct IcpResult {
+  Isometry3<Scalar> T_target_source = Isometry3<Scalar>::Identity();  ///< maps source points into the target
+  IcpStatus status = IcpStatus::too_few_correspondences;
+  /// [m] root mean square residual of the last association's inliers (point-to-plane distance or
+  /// Euclidean distance, by method); 0 when there were none.
+  Scalar rmse = Scalar(0);
+  std::size_t inliers = 0;        ///< partners of the last association
+  int iterations = 0;             ///< associations made
+  int degenerate_directions = 0;  ///< unobservable directions in the last solve (point-to-plane)
+  /// True when the pose is usable: converged, or degenerate (best pose in the observable subspace).
+  bool ok() const { return status == IcpStatus::converged || status == IcpStatus::degenerate; }
+};
+
+namespace registration_detail {
+
+inline double robust_weight(RobustKernel kernel, double r, double k) {
+  const double a = std::abs(r);
+  switch (kernel) {
+    case RobustKernel::huber: return a <= k ? 1.0 : k / a;
+    case RobustKernel::tukey: {
+      if (a >= k) return 0.0;
+      const double t = 1.0 - (a / k) * (a / k);
+      return t * t;
+    }
+    default: return 1.0;
+  }
+}
+
+struct PlaneAccumulator {
+  Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+  double sum_sq = 0;
+  std::size_t count = 0;
+  void merge(const PlaneAccumulator& o) {
+    H += o.H;
+    g += o.g;
+    sum_sq += o.sum_sq;
+    count += o.count;
+  }
+};
+
+struct PointAccumulator {
+  double w = 0;
+  Eigen::Vector3d sq = Eigen::Vector3d::Zero(), sy = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d sqy = Eigen::Matrix3d::Zero();
+  double sum_sq = 0;
+  std::size_t count = 0;
+  void merge(const PointAccumulator& o) {
+    w += o.w;
+    sq += o.sq;
+    sy += o.sy;
+    sqy += o.sqy;
+    sum_sq += o.sum_sq;
+    count += o.count;
+  }
+};
+
+/// Solves H δ = −g in the observable subspace (see the file comment). Returns the number of
+/// unobservable directions; δ = [ω (rotation about c), v (translation)].
+inline int solve_observable(const Eigen::Matrix<double, 6, 6>& H, const Eigen::Matrix<double, 6, 1>& g,
+                            double threshold, Eigen::Matrix<double, 6, 1>& delta) {
+  // Block-isotropic scaling keeps "not moved" meaningful: a null direction of pure translation stays
+  // orthogonal to the update in the metric of metres.
+  const double tr_r = H.topLeftCorner<3, 3>().trace() / 3, tr_t = H.bottomRightCorner<3, 3>().trace() / 3;
+  const double s_r = tr_r > 0 ? 1 / std::sqrt(tr_r) : 0, s_t = tr_t > 0 ? 1 / std::sqrt(tr_t) : 0;
+  Eigen::Matrix<double, 6, 1> d;
+  d << s_r, s_r, s_r, s_t, s_t, s_t;
+  const Eigen::Matrix<double, 6, 6> Hs = d.asDiagonal() * H * d.asDiagonal();
+  const Eigen::Matrix<double, 6, 1> gs = d.asDiagonal() * g;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(Hs);
+  const Eigen::Matrix<double, 6, 1> lambda = es.eigenvalues();  // ascending
+  const double lmax = lambda(5);
+  Eigen::Matrix<double, 6, 1> ds = Eigen::Matrix<double, 6, 1>::Zero();
+  int unobservable = 0;
+  for (int i = 0; i < 6; ++i) {
+    if (!(lmax > 0) || !(lambda(i) > threshold * lmax)) {
+      ++unobservable;
+      continue;
+    }
+    const auto vi = es.eigenvectors().col(i);
+    ds -= vi * (vi.dot(gs) / lambda(i));
+  }
+  delta = d.asDiagonal() * ds;
+  return unobservable;
+}
+
+template <typename Scalar>
+Isometry3<Scalar> orthonormalized(const Isometry3<Scalar>& T) {
+  Isometry3<Scalar> out = Isometry3<Scalar>::Identity();
+  out.linear() = Eigen::Quaternion<Scalar>(T.linear()).normalized().toRotationMatrix();
+  out.translation() = T.translation();
+  return out;
+}
+
+}  // namespace registration_detail
+
+/// Registers `source` (source frame [m]; normals optional, used to reject incompatible pairs) to the
+/// target held by `association`, starting from `T_target_source_init`. Non-finite source points are
+/// skipped. Throws std::invalid_argument for settings out of range or an invalid initial pose;
+/// everything else is reported in the result. Point-to-plane needs target normals
+/// (`association.has_target_normals()`), else throws.
+template <typename Scalar, typename Association>
+IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& association,
+                      const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings = {}) {
+  const std::vector<Vector3<Scalar>>& source_points = source.points;
+  static_assert(is_association<Association>::value, "Association must model the concept in correspondence.hpp");
+  static_assert(std::is_same<typename Association::Scalar, Scalar>::value, "Association::Scalar must match");
+  namespace rd = registration_detail;
+  require(settings.max_iterations >= 1, "max_iterations", "must be >= 1");
+  require(std::isfinite(settings.max_correspondence_distance) && settings.max_correspondence_distance > 0,
+          "max_correspondence_distance", "must be finite and > 0");
+  require(std::isfinite(settings.kernel_scale) && settings.kernel_scale > 0, "kernel_scale", "must be finite and > 0");
+  require(std::isfinite(settings.rotation_epsilon) && settings.rotation_epsilon >= 0, "rotation_epsilon",
+          "must be finite and >= 0");
+  require(std::isfinite(settings.translation_epsilon) && settings.translation_epsilon >= 0, "translation_epsilon",
+          "must be finite and >= 0");
+  require(settings.stride >= 1, "stride", "must be >= 1");
+  require(std::isfinite(settings.max_normal_angle) && settings.max_normal_angle > 0, "max_normal_angle",
+          "must be finite and > 0");
+  require(source.normals.empty() || source.normals.size() == source.points.size(), "source",
+          "normals must be empty or one per point");
+  require(std::isfinite(settings.degeneracy_threshold) && settings.degeneracy_threshold >= 0 &&
+              settings.degeneracy_threshold < 1,
+          "degeneracy_threshold", "must be in [0, 1)");
+  require(!(settings.max_correction_translation <= 0), "max_correction_translation", "must be > 0");
+  require(!(settings.max_correction_rotation <= 0), "max_correction_rotation", "must be > 0");
+  require_valid_pose(T_target_source_init, "T_target_source_init");
+  const bool plane = settings.method == IcpMethod::point_to_plane;
+  require(!plane || association.has_target_normals(), "association",
+          "point-to-plane ICP needs target normals");
+  const int threads = rd::resolve_threads(settings.num_threads);
+  const std::size_t min_corr = std::size_t(std::max(6, settings.min_correspondences));
+
+  IcpResult<Scalar> result;
+  result.T_target_source = T_target_source_init;
+
+  const bool use_normals = source.has_normals();
+  std::vector<Vector3<Scalar>> src, src_normals;
+  src.reserve(source_points.size() / std::size_t(settings.stride) + 1);
+  Eigen::Vector3d centroid_src = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < source_points.size(); i += std::size_t(settings.stride))
+    if (source_points[i].allFinite()) {
+      src.push_back(source_points[i]);
+      if (use_normals)
+        src_normals.push_back(source.normals[i].allFinite() ? source.normals[i] : Vector3<Scalar>::Zero());
+      centroid_src += source_points[i].template cast<double>();
+    }
+  if (src.size() < min_corr) return result;
+  centroid_src /= double(src.size());
+
+  const double max_d = double(settings.max_correspondence_distance), k = double(settings.kernel_scale);
+  const double degeneracy = double(settings.degeneracy_threshold);
+  const double cos_normal = std::cos(std::min(double(settings.max_normal_angle), 3.14159265358979323846));
+  // Is the pair (source i, target j) compatible by its normals (rotation R_ts of the current pose)?
+  const auto compatible = [&](const Eigen::Matrix3d& R_ts, std::size_t i, std::ptrdiff_t j) {
+    if (!use_normals) return true;
+    const Eigen::Vector3d ns = src_normals[i].template cast<double>();
+    if (ns.squaredNorm() < 0.5) return false;  // no source normal: likely an edge point
+    if (!association.has_target_normals()) return true;
+    const Eigen::Vector3d nt = association.target_normal(j).template cast<double>();
+    return nt.squaredNorm() < 0.5 || (R_ts * ns).dot(nt) >= cos_normal;
+  };
+  Eigen::Isometry3d T = T_target_source_init.template cast<double>();
+  std::vector<Vector3<Scalar>> moved(src.size());
+  std::vector<std::ptrdiff_t> partners;
+  const std::ptrdiff_t n = std::ptrdiff_t(src.size());
+  bool converged = false;
+
+  for (int it = 1; it <= settings.max_iterations; ++it) {
+    const Isometry3<Scalar> Ts = T.cast<Scalar>();
+    rd::parallel_for(n, threads, [&](std::ptrdiff_t i) { moved[std::size_t(i)] = Ts * src[std::size_t(i)]; });
+    association.associate(moved, settings.max_correspondence_distance, threads, partners);
+    result.iterations = it;
+
+    Eigen::Isometry3d dT = Eigen::Isometry3d::Identity();
+    const Eigen::Vector3d c = T * centroid_src;
+    const Eigen::Matrix3d R_ts = T.linear();
+    if (plane) {
+      const rd::PlaneAccumulator acc = rd::parallel_reduce(
+          n, threads, rd::PlaneAccumulator{},
+          [&](rd::PlaneAccumulator& a, std::ptrdiff_t i) {
+            const std::ptrdiff_t j = partners[std::size_t(i)];
+            if (j < 0) return;
+            const Eigen::Vector3d nrm = association.target_normal(j).template cast<double>();
+            if (nrm.squaredNorm() < 0.5) return;  // unknown normal
+            if (!compatible(R_ts, std::size_t(i), j)) return;
+            const Eigen::Vector3d q = moved[std::size_t(i)].template cast<double>();
+            const double r = nrm.dot(q - association.target_point(j).template cast<double>());
+            if (!(std::abs(r) <= max_d)) return;
+            const double w = rd::robust_weight(settings.kernel, r, k);
+            Eigen::Matrix<double, 6, 1> J;
+            J << (q - c).cross(nrm), nrm;
+            a.H.template selfadjointView<Eigen::Upper>().rankUpdate(J, w);
+            a.g += (w * r) * J;
+            a.sum_sq += r * r;
+            ++a.count;
+          },
+          [](rd::PlaneAccumulator& total, const rd::PlaneAccumulator& a) { total.merge(a); });
+      result.inliers = acc.count;
+      result.rmse = acc.count ? Scalar(std::sqrt(acc.sum_sq / double(acc.count))) : Scalar(0);
+      if (acc.count < min_corr) {
+        result.status = IcpStatus::too_few_correspondences;
+        result.T_target_source = rd::orthonormalized<Scalar>(T.cast<Scalar>());
+        return result;
+      }
+      const Eigen::Matrix<double, 6, 6> H = acc.H.template selfadjointView<Eigen::Upper>();
+      Eigen::Matrix<double, 6, 1> delta;
+      result.degenerate_directions = rd::solve_observable(H, acc.g, degeneracy, delta);
+      if (!delta.allFinite()) {
+        result.status = IcpStatus::diverged;
+        result.T_target_source = T_target_source_init;
+        return result;
+      }
+      const Eigen::Vector3d omega = delta.head<3>();
+      const double angle = omega.norm();
+      const Eigen::Matrix3d R = angle > 0 ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix()
+                                          : Eigen::Matrix3d::Identity();
+      // q' = R (q − c) + c + v
+      dT.linear() = R;
+      dT.translation() = c - R * c + delta.tail<3>();
+    } else {
+      const rd::PointAccumulator acc = rd::parallel_reduce(
+          n, threads, rd::PointAccumulator{},
+          [&](rd::PointAccumulator& a, std::ptrdiff_t i) {
+            const std::ptrdiff_t j = partners[std::size_t(i)];
+            if (j < 0 || !compatible(R_ts, std::size_t(i), j)) return;
+            const Eigen::Vector3d q = moved[std::size_t(i)].template cast<double>();
+            const Eigen::Vector3d y = association.target_point(j).template cast<double>();
+            const double d2 = (q - y).squaredNorm();
+            if (!(d2 <= max_d * max_d)) return;
+            const double w = rd::robust_weight(settings.kernel, std::sqrt(d2), k);
+            a.w += w;
+            a.sq += w * q;
+            a.sy += w * y;
+            a.sqy += w * q * y.transpose();
+            a.sum_sq += d2;
+            ++a.count;
+          },
+          [](rd::PointAccumulator& total, const rd::PointAccumulator& a) { total.merge(a); });
+      result.inliers = acc.count;
+      result.rmse = acc.count ? Scalar(std::sqrt(acc.sum_sq / double(acc.count))) : Scalar(0);
+      result.degenerate_directions = 0;
+      if (acc.count < min_corr || !(acc.w > 0)) {
+        result.status = IcpStatus::too_few_correspondences;
+        result.T_target_source = rd::orthonormalized<Scalar>(T.cast<Scalar>());
+        return result;
+      }
+      // Weighted Kabsch: R maximizing tr(R Σ) with Σ = cov(q, y) (Umeyama without scale).
+      const Eigen::Vector3d mq = acc.sq / acc.w, my = acc.sy / acc.w;
+      const Eigen::Matrix3d S = acc.sqy - acc.w * mq * my.transpose();
+      Eigen::JacobiSVD<Eigen::Matrix3d> svd(S, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+      if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0) D(2, 2) = -1;
+      const Eigen::Matrix3d R = svd.matrixV() * D * svd.matrixU().transpose();
+      dT.linear() = R;
+      dT.translation() = my - R * mq;
+      if (!dT.matrix().allFinite()) {
+        result.status = IcpStatus::diverged;
+        result.T_target_source = T_target_source_init;
+        return result;
+      }
+    }
+
+    T = dT * T;
+    // Re-orthonormalize: many small updates would otherwise drift off SO(3) (float callers).
+    T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
+    const Eigen::Isometry3d correction = T * T_target_source_init.template cast<double>().inverse(Eigen::Isometry);
+    if (!T.matrix().allFinite() || correction.translation().norm() > double(settings.max_correction_translation) ||
+        rotation_angle<double>(correction) > double(settings.max_correction_rotation)) {
+      result.status = IcpStatus::diverged;
+      result.T_target_source = T_target_source_init;
+      return result;
+    }
+    if (rotation_angle<double>(dT) < double(settings.rotation_epsilon) &&
+        (dT * c - c).norm() < double(settings.translation_epsilon)) {
+      converged = true;
+      break;
+    }
+  }
+  result.T_target_source = rd::orthonormalized<Scalar>(T.cast<Scalar>());
+  if (result.degenerate_directions > 0) result.status = IcpStatus::degenerate;
+  else result.status = converged ? IcpStatus::converged : IcpStatus::max_iterations;
+  return result;
+}
+
+}  // namespace binpick
+
+namespace binpick {
+
+/// Overload for a bare point list (no source normals).
+template <typename Scalar, typename Association>
+IcpResult<Scalar> icp(const std::vector<Vector3<Scalar>>& source_points, const Association& association,
+                      const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings = {}) {
+  PointCloud<Scalar> source;
+  source.points = source_points;
+  return icp(source, association, T_target_source_init, settings);
+}
+
+}  // namespace binpick

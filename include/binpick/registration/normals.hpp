@@ -1,0 +1,202 @@
+#pragma once
+/// \file normals.hpp
+/// Surface normals for point-to-plane ICP (paper §III.B.2: views are refined with point-to-plane ICP).
+///  - organized clouds (depth images): the cross product of the horizontal and vertical tangents taken
+///    from pixel neighbours (central differences); none on creases and, by default, none next to
+///    depth edges and holes (one-sided differences there on request);
+///  - unorganized clouds: PCA of the k nearest neighbours (FLANN kd-tree), the eigenvector of the
+///    smallest eigenvalue.
+/// Normals are unit vectors oriented toward the viewpoint (the camera), or zero where none can be
+/// estimated; never NaN.
+
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+
+#include "binpick/core/errors.hpp"
+#include "binpick/registration/detail/parallel.hpp"
+#include "binpick/registration/kdtree.hpp"
+#include "binpick/registration/point_cloud.hpp"
+
+namespace binpick {
+
+template <typename Scalar>
+struct OrganizedNormalSettings {
+  /// Distance [px] of the neighbours spanning the tangents; larger averages over more sensor noise
+  /// (and depth quantization) and blurs edges more. >= 1.
+  int pixel_offset = 2;
+  /// A neighbour whose depth differs from the centre's by more than this fraction of the centre depth
+  /// lies across a depth edge and is not used. > 0.
+  Scalar max_depth_jump_ratio = Scalar(0.05);
+  /// [rad] When the forward and backward tangents of a pixel differ by more than this angle, the
+  /// pixel sits on a crease (a box edge) and a central difference would blend two faces into a
+  /// normal that fits neither: the pixel gets no normal. Raise it for noisy sensors (their tangents
+  /// scatter); pi disables the check.
+  Scalar max_crease_angle = Scalar(0.35);
+  /// Near a depth edge or hole (a neighbour missing or across a jump): false (default) leaves the
+  /// pixel without a normal, so ICP ignores the silhouette band where partners are ambiguous; true
+  /// falls back to the one-sided difference (keeps thin structures, at the cost of edge bias).
+  bool one_sided_at_edges = false;
+  int num_threads = 0;  ///< 0 = all cores
+};
+
+namespace registration_detail {
+
+inline void require_normal_settings_valid(int pixel_offset, double max_depth_jump_ratio, double max_crease_angle) {
+  require(pixel_offset >= 1, "pixel_offset", "must be >= 1");
+  require(std::isfinite(max_depth_jump_ratio) && max_depth_jump_ratio > 0, "max_depth_jump_ratio",
+          "must be finite and > 0");
+  require(std::isfinite(max_crease_angle) && max_crease_angle > 0, "max_crease_angle", "must be finite and > 0");
+}
+
+/// The normal at pixel (u, v) of an organized cloud (zero when none; see OrganizedNormalSettings).
+template <typename Scalar>
+Vector3<Scalar> organized_normal_at(const OrganizedCloud<Scalar>& cloud, int u, int v,
+                                    const OrganizedNormalSettings<Scalar>& settings, Scalar cos_crease) {
+  const int k = settings.pixel_offset, w = cloud.width, h = cloud.height;
+  const Vector3<Scalar>& c = cloud.points[cloud.index(u, v)];
+  if (!(c.z() > Scalar(0))) return Vector3<Scalar>::Zero();
+  const Scalar jump = settings.max_depth_jump_ratio * c.z();
+  auto usable = [&](int uu, int vv) {
+    if (uu < 0 || vv < 0 || uu >= w || vv >= h) return false;
+    const Vector3<Scalar>& p = cloud.points[cloud.index(uu, vv)];
+    return p.z() > Scalar(0) && std::abs(p.z() - c.z()) <= jump;
+  };
+  auto tangent = [&](int du, int dv, Vector3<Scalar>& t) {
+    const bool fwd = usable(u + du, v + dv), bwd = usable(u - du, v - dv);
+    if (fwd && bwd) {
+      const Vector3<Scalar> tf = cloud.points[cloud.index(u + du, v + dv)] - c;
+      const Vector3<Scalar> tb = c - cloud.points[cloud.index(u - du, v - dv)];
+      if (tf.dot(tb) < cos_crease * tf.norm() * tb.norm()) return false;  // crease
+      t = tf + tb;
+    } else if (!settings.one_sided_at_edges) {
+      return false;
+    } else if (fwd) {
+      t = cloud.points[cloud.index(u + du, v + dv)] - c;
+    } else if (bwd) {
+      t = c - cloud.points[cloud.index(u - du, v - dv)];
+    } else {
+      return false;
+    }
+    return true;
+  };
+  Vector3<Scalar> tu, tv;
+  if (!tangent(k, 0, tu) || !tangent(0, k, tv)) return Vector3<Scalar>::Zero();
+  Vector3<Scalar> n = tu.cross(tv);
+  const Scalar norm = n.norm();
+  // Tangents (nearly) parallel: grazing view or a one-pixel-wide sliver; no reliable normal.
+  if (!(norm > Scalar(1e-3) * tu.norm() * tv.norm()) || !std::isfinite(norm)) return Vector3<Scalar>::Zero();
+  n /= norm;
+  if (n.dot(c) > Scalar(0)) n = -n;  // toward the camera at the origin
+  return n;
+}
+
+template <typename Scalar>
+Scalar cos_crease(const OrganizedNormalSettings<Scalar>& settings) {
+  return std::cos(std::min(settings.max_crease_angle, Scalar(3.14159265358979323846)));
+}
+
+}  // namespace registration_detail
+
+/// Fills `cloud.normals` (one per pixel). Throws std::invalid_argument for settings out of range or a
+/// cloud whose point count is not width*height.
+template <typename Scalar>
+void estimate_organized_normals(OrganizedCloud<Scalar>& cloud, const OrganizedNormalSettings<Scalar>& settings = {}) {
+  registration_detail::require_normal_settings_valid(settings.pixel_offset, double(settings.max_depth_jump_ratio),
+                                                      double(settings.max_crease_angle));
+  require(cloud.width >= 0 && cloud.height >= 0 &&
+              cloud.points.size() == std::size_t(cloud.width) * std::size_t(cloud.height),
+          "cloud", "points.size() must equal width*height");
+  const int threads = registration_detail::resolve_threads(settings.num_threads);
+  const Scalar cc = registration_detail::cos_crease(settings);
+  cloud.normals.assign(cloud.points.size(), Vector3<Scalar>::Zero());
+  registration_detail::parallel_for(cloud.height, threads, [&](std::ptrdiff_t v) {
+    for (int u = 0; u < cloud.width; ++u)
+      cloud.normals[cloud.index(u, int(v))] = registration_detail::organized_normal_at(cloud, u, int(v), settings, cc);
+  });
+}
+
+/// The valid pixels of every `stride`-th row and column with their normals, the normals taken at full
+/// resolution (so subsampling does not widen the band without normals along edges).
+template <typename Scalar>
+PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, int stride,
+                                          const OrganizedNormalSettings<Scalar>& settings = {}) {
+  require(stride >= 1, "stride", "must be >= 1");
+  registration_detail::require_normal_settings_valid(settings.pixel_offset, double(settings.max_depth_jump_ratio),
+                                                      double(settings.max_crease_angle));
+  const Scalar cc = registration_detail::cos_crease(settings);
+  PointCloud<Scalar> out;
+  for (int v = 0; v < cloud.height; v += stride)
+    for (int u = 0; u < cloud.width; u += stride) {
+      if (!cloud.valid(u, v)) continue;
+      out.points.push_back(cloud.points[cloud.index(u, v)]);
+      out.normals.push_back(registration_detail::organized_normal_at(cloud, u, v, settings, cc));
+    }
+  return out;
+}
+
+template <typename Scalar>
+struct KnnNormalSettings {
+  int k = 10;                                         ///< neighbours per PCA (the point included), >= 3
+  Vector3<Scalar> viewpoint = Vector3<Scalar>::Zero();  ///< normals point toward it [m]
+  KdTreeSettings<Scalar> kdtree{};
+  int num_threads = 0;  ///< 0 = all cores
+};
+
+/// One normal per point of `points` (zero for non-finite points and where the neighbours are
+/// collinear or fewer than 3). Throws std::invalid_argument for settings out of range.
+template <typename Scalar>
+std::vector<Vector3<Scalar>> estimate_knn_normals(const std::vector<Vector3<Scalar>>& points,
+                                                  const KnnNormalSettings<Scalar>& settings = {}) {
+  require(settings.k >= 3, "k", "must be >= 3");
+  require_all_finite(settings.viewpoint, "viewpoint");
+  const int threads = registration_detail::resolve_threads(settings.num_threads);
+  std::vector<Vector3<Scalar>> normals(points.size(), Vector3<Scalar>::Zero());
+  const KdTree<Scalar> tree(points, settings.kdtree);
+  if (tree.size() < 3) return normals;
+  std::vector<Scalar> queries;
+  std::vector<std::size_t> ids;
+  queries.reserve(points.size() * 3);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (points[i].allFinite()) {
+      queries.insert(queries.end(), points[i].data(), points[i].data() + 3);
+      ids.push_back(i);
+    }
+  std::vector<std::ptrdiff_t> nn;
+  std::vector<Scalar> d2;
+  const int k = settings.k;
+  tree.knn(queries.data(), ids.size(), k, threads, nn, d2);
+  registration_detail::parallel_for(std::ptrdiff_t(ids.size()), threads, [&](std::ptrdiff_t qi) {
+    // Covariance in double about the first neighbour's offset mean: stable for float input.
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    int count = 0;
+    for (int j = 0; j < k; ++j) {
+      const std::ptrdiff_t id = nn[std::size_t(qi) * k + j];
+      if (id < 0) continue;
+      mean += points[std::size_t(id)].template cast<double>();
+      ++count;
+    }
+    if (count < 3) return;
+    mean /= count;
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (int j = 0; j < k; ++j) {
+      const std::ptrdiff_t id = nn[std::size_t(qi) * k + j];
+      if (id < 0) continue;
+      const Eigen::Vector3d d = points[std::size_t(id)].template cast<double>() - mean;
+      cov += d * d.transpose();
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+    const Eigen::Vector3d ev = es.eigenvalues();  // ascending
+    // A line (two vanishing eigenvalues) has no normal.
+    if (!(ev(1) > 1e-12 * ev(2)) || !(ev(2) > 0)) return;
+    Eigen::Vector3d n = es.eigenvectors().col(0);
+    const std::size_t i = ids[std::size_t(qi)];
+    if (n.dot(settings.viewpoint.template cast<double>() - points[i].template cast<double>()) < 0) n = -n;
+    if (n.allFinite()) normals[i] = n.normalized().template cast<Scalar>();
+  });
+  return normals;
+}
+
+}  // namespace binpick

@@ -1,0 +1,103 @@
+#pragma once
+/// \file point_cloud.hpp
+/// The clouds registration works on: an unorganized `PointCloud` (points, optional normals) and an
+/// `OrganizedCloud` (one point per pixel of a depth image, so neighbours are pixel neighbours), and the
+/// backprojection of a depth image into either.
+///
+/// Conventions: points in metres in the frame of the camera that saw them; a normal is a unit vector or
+/// exactly zero ("unknown"). In an organized cloud an invalid pixel holds the point (0, 0, 0) (its
+/// z = 0, "no measurement", as in depth images), so no NaN is ever stored.
+
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "binpick/core/camera_model.hpp"
+#include "binpick/core/depth_image.hpp"
+#include "binpick/core/errors.hpp"
+#include "binpick/core/pose.hpp"
+
+namespace binpick {
+
+template <typename Scalar>
+struct PointCloud {
+  std::vector<Vector3<Scalar>> points;   ///< [m]
+  std::vector<Vector3<Scalar>> normals;  ///< empty, or one per point (unit, or zero = unknown)
+
+  std::size_t size() const { return points.size(); }
+  bool empty() const { return points.empty(); }
+  bool has_normals() const { return !points.empty() && normals.size() == points.size(); }
+};
+
+template <typename Scalar>
+struct OrganizedCloud {
+  int width = 0, height = 0;
+  std::vector<Vector3<Scalar>> points;   ///< row-major, width*height; z == 0 marks "no measurement"
+  std::vector<Vector3<Scalar>> normals;  ///< empty, or width*height (unit, or zero = unknown)
+
+  std::size_t index(int u, int v) const { return std::size_t(v) * std::size_t(width) + std::size_t(u); }
+  bool valid(int u, int v) const { return points[index(u, v)].z() > Scalar(0); }
+  bool has_normals() const { return !points.empty() && normals.size() == points.size(); }
+};
+
+/// One point per pixel of every `stride`-th row and column of `depth` (stride 1: every pixel; the
+/// cloud is then ceil(width/stride) × ceil(height/stride)), in the camera frame [m]. Throws
+/// std::invalid_argument when the image size differs from the camera's or stride < 1.
+template <typename Scalar, typename Camera>
+OrganizedCloud<Scalar> backproject_organized(const DepthImageView<Scalar>& depth, const Camera& camera, int stride = 1) {
+  static_assert(is_camera_model<Camera>::value, "Camera must model the camera concept (camera_model.hpp)");
+  require(stride >= 1, "stride", "must be >= 1");
+  require(depth.width() == camera.width() && depth.height() == camera.height(), "depth",
+          "image size differs from the camera's");
+  OrganizedCloud<Scalar> cloud;
+  cloud.width = (depth.width() + stride - 1) / stride;
+  cloud.height = (depth.height() + stride - 1) / stride;
+  cloud.points.assign(std::size_t(cloud.width) * std::size_t(cloud.height), Vector3<Scalar>::Zero());
+  for (int v = 0; v < cloud.height; ++v)
+    for (int u = 0; u < cloud.width; ++u) {
+      const Scalar z = depth.depth(u * stride, v * stride);
+      if (z > Scalar(0)) {
+        const Vector3<Scalar> p =
+            camera.backproject(Scalar(u * stride), Scalar(v * stride), z).template cast<Scalar>();
+        if (p.allFinite()) cloud.points[cloud.index(u, v)] = p;
+      }
+    }
+  return cloud;
+}
+
+/// The valid points of an organized cloud (and their normals, when it has them).
+template <typename Scalar>
+PointCloud<Scalar> valid_points(const OrganizedCloud<Scalar>& organized) {
+  PointCloud<Scalar> cloud;
+  const bool normals = organized.has_normals();
+  for (std::size_t i = 0; i < organized.points.size(); ++i)
+    if (organized.points[i].z() > Scalar(0)) {
+      cloud.points.push_back(organized.points[i]);
+      if (normals) cloud.normals.push_back(organized.normals[i]);
+    }
+  return cloud;
+}
+
+/// The valid pixels of every `stride`-th row and column of `depth` as an unorganized cloud [m]
+/// (stride 4 keeps 1/16 of the pixels). Throws std::invalid_argument for stride < 1 or a size mismatch.
+template <typename Scalar, typename Camera>
+PointCloud<Scalar> backproject_points(const DepthImageView<Scalar>& depth, const Camera& camera, int stride = 1) {
+  static_assert(is_camera_model<Camera>::value, "Camera must model the camera concept (camera_model.hpp)");
+  require(stride >= 1, "stride", "must be >= 1");
+  require(depth.width() == camera.width() && depth.height() == camera.height(), "depth",
+          "image size differs from the camera's");
+  PointCloud<Scalar> cloud;
+  cloud.points.reserve(std::size_t(depth.width() / stride + 1) * std::size_t(depth.height() / stride + 1));
+  for (int v = 0; v < depth.height(); v += stride)
+    for (int u = 0; u < depth.width(); u += stride) {
+      const Scalar z = depth.depth(u, v);
+      if (z > Scalar(0)) {
+        const Vector3<Scalar> p = camera.backproject(Scalar(u), Scalar(v), z).template cast<Scalar>();
+        if (p.allFinite()) cloud.points.push_back(p);
+      }
+    }
+  return cloud;
+}
+
+}  // namespace binpick

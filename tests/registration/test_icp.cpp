@@ -1,0 +1,211 @@
+// ICP properties on analytic scenes: recovery of random perturbations with both association
+// strategies (float and double), identity, inverse, degeneracy, determinism and bad input.
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include "binpick/registration.hpp"
+#include "scene.hpp"
+#include "test_support.hpp"
+
+using namespace binpick;
+using namespace binpick::test;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180;
+
+enum class Assoc { knn, projective };
+
+template <typename Scalar>
+PointCloud<Scalar> target_cloud_with_normals(const DepthImage<Scalar>& depth, const PinholeCamera<Scalar>& cam) {
+  OrganizedCloud<Scalar> org = backproject_organized(depth.view(), cam);
+  estimate_organized_normals(org);
+  PointCloud<Scalar> cloud;
+  for (std::size_t i = 0; i < org.points.size(); ++i)
+    if (org.points[i].z() > 0) {
+      cloud.points.push_back(org.points[i]);
+      cloud.normals.push_back(org.normals[i]);
+    }
+  return cloud;
+}
+
+/// Registers source (camera at T_scene_source) to target (camera at the scene origin) from `init`.
+template <typename Scalar>
+IcpResult<Scalar> register_views(const DepthImage<Scalar>& source, const DepthImage<Scalar>& target,
+                                 const Isometry3<Scalar>& init, Assoc assoc, IcpSettings<Scalar> s = {}) {
+  const auto cam = test_camera<Scalar>();
+  s.num_threads = 1;
+  if (assoc == Assoc::projective) return align_depth_views(source.view(), cam, target.view(), cam, init, s);
+  const KnnAssociation<Scalar> knn(target_cloud_with_normals(target, cam));
+  s.stride = 2;  // keeps the property cheap; the scene still has thousands of points
+  return align_depth_view(source.view(), cam, knn, init, s);
+}
+
+template <typename Scalar>
+void check_recovers_perturbation(Assoc assoc) {
+  const AnalyticScene scene = random_scene();
+  const auto cam = test_camera<Scalar>();
+  // The source camera looks from a slightly different place (a second view of the robot's path).
+  const Eigen::Isometry3d T_true = random_pose<double>(3 * kDeg, 0.01);
+  const DepthImage<Scalar> target = scene.render(cam, Eigen::Isometry3d::Identity());
+  const DepthImage<Scalar> source = scene.render(cam, T_true);
+  RC_PRE(target.valid_count() > 1000 && source.valid_count() > 1000);
+  // Perturbation: up to 2° and 5 mm.
+  const Eigen::Isometry3d P = random_pose<double>(2 * kDeg, 0.005 / std::sqrt(3.0));
+  const Isometry3<Scalar> init = (P * T_true).cast<Scalar>();
+  const IcpResult<Scalar> r = register_views(source, target, init, assoc);
+  const auto [et, er] = pose_error<Scalar>(r.T_target_source, T_true.cast<Scalar>());
+  RC_LOG() << to_string(r.status) << " error " << et * 1e3 << " mm " << er / kDeg << " deg, rmse " << r.rmse
+           << " it " << r.iterations << " inliers " << r.inliers << " degenerate " << r.degenerate_directions << "\n";
+  // Partners flipping at depth edges can keep the last update just above the epsilons: max_iterations
+  // with an accurate pose is acceptable, a failure status is not.
+  RC_ASSERT(r.status == IcpStatus::converged || r.status == IcpStatus::max_iterations);
+  RC_ASSERT(et < 0.2e-3);
+  RC_ASSERT(er < 0.05 * kDeg);
+}
+
+}  // namespace
+
+RC_GTEST_PROP(Icp, RecoversPerturbationProjectiveDouble, ()) { check_recovers_perturbation<double>(Assoc::projective); }
+RC_GTEST_PROP(Icp, RecoversPerturbationProjectiveFloat, ()) { check_recovers_perturbation<float>(Assoc::projective); }
+RC_GTEST_PROP(Icp, RecoversPerturbationKnnDouble, ()) { check_recovers_perturbation<double>(Assoc::knn); }
+RC_GTEST_PROP(Icp, RecoversPerturbationKnnFloat, ()) { check_recovers_perturbation<float>(Assoc::knn); }
+
+namespace {
+
+template <typename Scalar>
+void check_identity_when_source_is_target(Assoc assoc) {
+  const AnalyticScene scene = random_scene();
+  const auto cam = test_camera<Scalar>();
+  const DepthImage<Scalar> depth = scene.render(cam, Eigen::Isometry3d::Identity());
+  const IcpResult<Scalar> r = register_views(depth, depth, Isometry3<Scalar>::Identity(), assoc);
+  RC_ASSERT(r.status == IcpStatus::converged);
+  const auto [et, er] = pose_error<Scalar>(r.T_target_source, Isometry3<Scalar>::Identity());
+  RC_ASSERT(et < 1e-6);
+  RC_ASSERT(er < 1e-5);
+  RC_ASSERT(r.rmse < Scalar(1e-5));
+}
+
+template <typename Scalar>
+void check_inverse_start_gives_inverse() {
+  const AnalyticScene scene = random_scene();
+  const auto cam = test_camera<Scalar>();
+  const Eigen::Isometry3d T_true = random_pose<double>(3 * kDeg, 0.01);
+  const DepthImage<Scalar> a = scene.render(cam, Eigen::Isometry3d::Identity());
+  const DepthImage<Scalar> b = scene.render(cam, T_true);
+  const Eigen::Isometry3d P = random_pose<double>(2 * kDeg, 0.005 / std::sqrt(3.0));
+  const Isometry3<Scalar> init = (P * T_true).cast<Scalar>();
+  const IcpResult<Scalar> ab = register_views(b, a, init, Assoc::projective);
+  const IcpResult<Scalar> ba = register_views(a, b, Isometry3<Scalar>(init.inverse()), Assoc::projective);
+  RC_ASSERT(ab.status == IcpStatus::converged || ab.status == IcpStatus::max_iterations);
+  RC_ASSERT(ba.status == IcpStatus::converged || ba.status == IcpStatus::max_iterations);
+  const auto [et, er] = pose_error<Scalar>(Isometry3<Scalar>(ba.T_target_source.inverse()), ab.T_target_source);
+  RC_LOG() << "inverse mismatch " << et * 1e3 << " mm " << er / kDeg << " deg\n";
+  RC_ASSERT(et < 0.2e-3);
+  RC_ASSERT(er < 0.05 * kDeg);
+}
+
+template <typename Scalar>
+void check_single_plane_is_degenerate(Assoc assoc) {
+  AnalyticScene scene;
+  PlaneSurface plane;
+  plane.normal = random_rotation(30 * kDeg) * Eigen::Vector3d(0, 0, -1);
+  plane.point = Eigen::Vector3d(0, 0, uniform(0.25, 0.4));
+  scene.planes.push_back(plane);
+  const auto cam = test_camera<Scalar>();
+  const DepthImage<Scalar> depth = scene.render(cam, Eigen::Isometry3d::Identity());
+  // Start off by a slide in the plane (unobservable) and an offset along the normal (observable).
+  const Eigen::Vector3d a = plane.normal.unitOrthogonal(), b = plane.normal.cross(a);
+  const Eigen::Vector3d slide = uniform(-0.005, 0.005) * a + uniform(-0.005, 0.005) * b;
+  const double offset = uniform(-0.004, 0.004);
+  Eigen::Isometry3d init = Eigen::Isometry3d::Identity();
+  init.translation() = slide + offset * plane.normal;
+  const IcpResult<Scalar> r = register_views(depth, depth, init.cast<Scalar>(), assoc);
+  RC_ASSERT(r.status == IcpStatus::degenerate);
+  RC_ASSERT(r.degenerate_directions >= 3);  // two slides and the spin about the normal
+  const Eigen::Isometry3d T = r.T_target_source.template cast<double>();
+  const Eigen::Vector3d t = T.translation();
+  const double tol = std::is_same<Scalar, float>::value ? 2e-6 : 1e-9;
+  RC_ASSERT(std::abs(t.dot(a) - slide.dot(a)) < tol);  // in-plane translation left alone
+  RC_ASSERT(std::abs(t.dot(b) - slide.dot(b)) < tol);
+  RC_ASSERT(std::abs(t.dot(plane.normal)) < 1e-5);  // the offset along the normal is corrected
+  RC_ASSERT(rotation_angle<double>(T) < 1e-4);
+}
+
+}  // namespace
+
+RC_GTEST_PROP(Icp, IdentityWhenSourceIsTargetProjectiveDouble, ()) {
+  check_identity_when_source_is_target<double>(Assoc::projective);
+}
+RC_GTEST_PROP(Icp, IdentityWhenSourceIsTargetKnnFloat, ()) { check_identity_when_source_is_target<float>(Assoc::knn); }
+RC_GTEST_PROP(Icp, InverseStartGivesInverseDouble, ()) { check_inverse_start_gives_inverse<double>(); }
+RC_GTEST_PROP(Icp, InverseStartGivesInverseFloat, ()) { check_inverse_start_gives_inverse<float>(); }
+RC_GTEST_PROP(Icp, SinglePlaneIsDegenerateProjectiveDouble, ()) { check_single_plane_is_degenerate<double>(Assoc::projective); }
+RC_GTEST_PROP(Icp, SinglePlaneIsDegenerateKnnFloat, ()) { check_single_plane_is_degenerate<float>(Assoc::knn); }
+
+TEST(Icp, DeterministicForAFixedThreadCount) {
+  binpick::test::AnalyticScene scene;
+  scene.planes.push_back({});
+  OrientedBox box;
+  box.T_scene_box.translation() = Eigen::Vector3d(0.03, 0.02, 0.29);
+  box.T_scene_box.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  scene.boxes.push_back(box);
+  const auto cam = test_camera<double>();
+  const DepthImage<double> depth = scene.render(cam, Eigen::Isometry3d::Identity());
+  Eigen::Isometry3d init = Eigen::Isometry3d::Identity();
+  init.translation() = Eigen::Vector3d(0.002, -0.001, 0.003);
+  IcpSettings<double> s;
+  s.num_threads = 2;
+  const auto target = make_projective_target(depth.view(), cam);
+  const auto r1 = align_depth_view(depth.view(), cam, target, init, s);
+  const auto r2 = align_depth_view(depth.view(), cam, target, init, s);
+  EXPECT_EQ(r1.T_target_source.matrix(), r2.T_target_source.matrix());
+  EXPECT_EQ(r1.rmse, r2.rmse);
+  s.num_threads = 1;
+  const auto r3 = align_depth_view(depth.view(), cam, target, init, s);
+  EXPECT_LT((r1.T_target_source.matrix() - r3.T_target_source.matrix()).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(Icp, BadInputIsAStatusNotACrash) {
+  const auto cam = test_camera<double>();
+  DepthImage<double> depth(cam.width(), cam.height(), 0.3);
+  const auto target = make_projective_target(depth.view(), cam);
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  // Empty source.
+  EXPECT_EQ(icp(std::vector<Eigen::Vector3d>{}, target, I).status, IcpStatus::too_few_correspondences);
+  // NaN points only, plus five finite ones: fewer than six usable.
+  std::vector<Eigen::Vector3d> pts(100, Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  for (int i = 0; i < 5; ++i) pts.push_back(cam.backproject(10.0 + i, 10.0, 0.3));
+  IcpResult<double> r = icp(pts, target, I);
+  EXPECT_EQ(r.status, IcpStatus::too_few_correspondences);
+  EXPECT_TRUE(r.T_target_source.matrix().allFinite());
+  // Enough points but none within reach: too few correspondences, pose unchanged.
+  std::vector<Eigen::Vector3d> far;
+  for (int i = 0; i < 50; ++i) far.push_back(cam.backproject(10.0 + i, 20.0, 0.6));
+  r = icp(far, target, I);
+  EXPECT_EQ(r.status, IcpStatus::too_few_correspondences);
+  EXPECT_TRUE(r.T_target_source.isApprox(I));
+  // Empty and all-NaN targets for kNN.
+  PointCloud<double> empty;
+  const KnnAssociation<double> none(empty);
+  IcpSettings<double> p2p;
+  p2p.method = IcpMethod::point_to_point;
+  EXPECT_EQ(icp(far, none, I, p2p).status, IcpStatus::too_few_correspondences);
+  PointCloud<double> nan_cloud;
+  nan_cloud.points = pts;
+  const KnnAssociation<double> nan_target(nan_cloud);
+  EXPECT_NO_THROW(r = icp(far, nan_target, I, p2p));
+  EXPECT_TRUE(r.T_target_source.matrix().allFinite());
+  // Preconditions throw, naming the argument.
+  IcpSettings<double> bad;
+  bad.max_correspondence_distance = -1;
+  EXPECT_THROW(icp(far, target, I, bad), std::invalid_argument);
+  EXPECT_THROW(icp(far, none, I), std::invalid_argument);  // point-to-plane without target normals
+  Eigen::Isometry3d not_rigid = I;
+  not_rigid.matrix()(0, 0) = 2;
+  EXPECT_THROW(icp(far, target, not_rigid), std::invalid_argument);
+}

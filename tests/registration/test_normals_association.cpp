@@ -1,0 +1,157 @@
+// Normals (organized and kNN) against analytic planes; kd-tree and projective association against
+// brute force.
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include "binpick/registration.hpp"
+#include "scene.hpp"
+#include "test_support.hpp"
+
+using namespace binpick;
+using namespace binpick::test;
+
+namespace {
+
+template <typename Scalar>
+double normal_tolerance() {
+  return std::is_same<Scalar, float>::value ? 2e-3 : 1e-6;
+}
+
+template <typename Scalar>
+void check_organized_normals_on_plane() {
+  AnalyticScene scene;
+  PlaneSurface plane;
+  plane.normal = random_rotation(40 * M_PI / 180) * Eigen::Vector3d(0, 0, -1);
+  plane.point = Eigen::Vector3d(uniform(-0.05, 0.05), uniform(-0.05, 0.05), uniform(0.2, 1.0));
+  scene.planes.push_back(plane);
+  const auto cam = test_camera<Scalar>();
+  const DepthImage<Scalar> depth = scene.render(cam, Eigen::Isometry3d::Identity());
+  OrganizedCloud<Scalar> cloud = backproject_organized(depth.view(), cam);
+  OrganizedNormalSettings<Scalar> s;
+  s.pixel_offset = *rc::gen::inRange(1, 4);
+  estimate_organized_normals(cloud, s);
+  RC_ASSERT(cloud.has_normals());
+  std::size_t checked = 0;
+  for (int v = 0; v < cloud.height; ++v)
+    for (int u = 0; u < cloud.width; ++u) {
+      if (!cloud.valid(u, v)) {
+        RC_ASSERT(cloud.normals[cloud.index(u, v)].isZero());
+        continue;
+      }
+      const Eigen::Vector3d n = cloud.normals[cloud.index(u, v)].template cast<double>();
+      const int k = s.pixel_offset;
+      const bool interior = u >= k && v >= k && u + k < cloud.width && v + k < cloud.height &&
+                            cloud.valid(u - k, v) && cloud.valid(u + k, v) && cloud.valid(u, v - k) &&
+                            cloud.valid(u, v + k);
+      if (!interior) {
+        RC_ASSERT(n.isZero());  // a neighbour is missing: no one-sided guess by default
+        continue;
+      }
+      RC_ASSERT((n - plane.normal).norm() < normal_tolerance<Scalar>());
+      ++checked;
+    }
+  RC_ASSERT(checked > 0u);
+}
+
+template <typename Scalar>
+void check_knn_normals_on_plane() {
+  // Points scattered on a random plane; normals must point toward the viewpoint.
+  const Eigen::Vector3d n_true = random_rotation(M_PI) * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d origin(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
+  const Eigen::Vector3d a = n_true.unitOrthogonal(), b = n_true.cross(a);
+  std::vector<Vector3<Scalar>> pts;
+  const int n = *rc::gen::inRange(20, 300);
+  std::mt19937 rng(*rc::gen::arbitrary<unsigned>());  // bulk positions: shrinking them adds nothing
+  std::uniform_real_distribution<double> in(-0.1, 0.1);
+  for (int i = 0; i < n; ++i) pts.push_back((origin + in(rng) * a + in(rng) * b).cast<Scalar>());
+  pts.push_back(Vector3<Scalar>::Constant(std::numeric_limits<Scalar>::quiet_NaN()));
+  KnnNormalSettings<Scalar> s;
+  s.viewpoint = (origin + 0.5 * n_true).cast<Scalar>();
+  s.num_threads = *rc::gen::inRange(0, 3);
+  const auto normals = estimate_knn_normals(pts, s);
+  RC_ASSERT(normals.size() == pts.size());
+  RC_ASSERT(normals.back().isZero());  // the NaN point gets none
+  for (int i = 0; i < n; ++i) RC_ASSERT((normals[std::size_t(i)].template cast<double>() - n_true).norm() < 10 * normal_tolerance<Scalar>());
+}
+
+template <typename Scalar>
+void check_kdtree_exact() {
+  const int n = *rc::gen::inRange(0, 400);
+  std::vector<Vector3<Scalar>> pts;
+  // A coarse lattice makes ties common; compare distances, not indices.
+  const bool lattice = *rc::gen::arbitrary<bool>();
+  for (int i = 0; i < n; ++i) {
+    if (lattice) pts.emplace_back(Scalar(*rc::gen::inRange(0, 4)), Scalar(*rc::gen::inRange(0, 4)), Scalar(*rc::gen::inRange(0, 4)));
+    else pts.emplace_back(Scalar(uniform(-1, 1)), Scalar(uniform(-1, 1)), Scalar(uniform(-1, 1)));
+  }
+  if (n > 0 && *rc::gen::arbitrary<bool>()) pts[0] = Vector3<Scalar>::Constant(std::numeric_limits<Scalar>::quiet_NaN());
+  const KdTree<Scalar> tree(pts);
+  std::vector<Vector3<Scalar>> queries;
+  for (int i = 0; i < 50; ++i) queries.emplace_back(Scalar(uniform(-1, 4)), Scalar(uniform(-1, 4)), Scalar(uniform(-1, 4)));
+  const int k = *rc::gen::inRange(1, 5);
+  std::vector<std::ptrdiff_t> idx;
+  std::vector<Scalar> d2;
+  tree.knn(queries.front().data(), queries.size(), k, 2, idx, d2);
+  for (std::size_t q = 0; q < queries.size(); ++q) {
+    std::vector<double> brute;
+    for (const auto& p : pts)
+      if (p.allFinite()) brute.push_back(double((p - queries[q]).squaredNorm()));
+    std::sort(brute.begin(), brute.end());
+    for (int j = 0; j < k; ++j) {
+      const std::size_t e = q * std::size_t(k) + std::size_t(j);
+      if (std::size_t(j) >= brute.size()) {
+        RC_ASSERT(idx[e] == -1);
+        continue;
+      }
+      RC_ASSERT(idx[e] >= 0);
+      RC_ASSERT(pts[std::size_t(idx[e])].allFinite());
+      RC_ASSERT(std::abs(double(d2[e]) - brute[std::size_t(j)]) <= 1e-5 * (1 + brute[std::size_t(j)]));
+      RC_ASSERT(std::abs(double((pts[std::size_t(idx[e])] - queries[q]).squaredNorm()) - double(d2[e])) <= 1e-5 * (1 + double(d2[e])));
+    }
+  }
+}
+
+}  // namespace
+
+RC_GTEST_PROP(Normals, OrganizedOnPlaneDouble, ()) { check_organized_normals_on_plane<double>(); }
+RC_GTEST_PROP(Normals, OrganizedOnPlaneFloat, ()) { check_organized_normals_on_plane<float>(); }
+RC_GTEST_PROP(Normals, KnnOnPlaneDouble, ()) { check_knn_normals_on_plane<double>(); }
+RC_GTEST_PROP(Normals, KnnOnPlaneFloat, ()) { check_knn_normals_on_plane<float>(); }
+RC_GTEST_PROP(KdTree, ExactAgainstBruteForceDouble, ()) { check_kdtree_exact<double>(); }
+RC_GTEST_PROP(KdTree, ExactAgainstBruteForceFloat, ()) { check_kdtree_exact<float>(); }
+
+TEST(Normals, DepthEdgesAndHolesGiveNoNormalAcrossThem) {
+  // A 3×1 strip with a 0.5 m step: the middle pixel's horizontal neighbours are across the edge, so
+  // it falls back to one side; a lone valid pixel gets no normal.
+  OrganizedCloud<double> c;
+  c.width = 3;
+  c.height = 3;
+  c.points.assign(9, Eigen::Vector3d::Zero());
+  c.points[4] = Eigen::Vector3d(0, 0, 1);
+  estimate_organized_normals(c);
+  EXPECT_TRUE(c.normals[4].isZero());
+  OrganizedNormalSettings<double> bad;
+  bad.pixel_offset = 0;
+  EXPECT_THROW(estimate_organized_normals(c, bad), std::invalid_argument);
+}
+
+TEST(ProjectiveAssociation, FindsThePixelAndRespectsTheDistance) {
+  const auto cam = test_camera<double>();
+  DepthImage<double> depth(cam.width(), cam.height(), 0.5);
+  const auto target = make_projective_target(depth.view(), cam);
+  std::vector<Eigen::Vector3d> q{cam.backproject(10, 20, 0.5), cam.backproject(10, 20, 0.6),
+                                 Eigen::Vector3d(0, 0, -1), cam.backproject(64, 40, 0.503)};
+  std::vector<std::ptrdiff_t> partners;
+  target.associate(q, 0.01, 1, partners);
+  ASSERT_EQ(partners.size(), 4u);
+  EXPECT_EQ(partners[0], std::ptrdiff_t(20 * cam.width() + 10));
+  EXPECT_EQ(partners[1], -1);  // 10 cm behind
+  EXPECT_EQ(partners[2], -1);  // behind the camera
+  EXPECT_GE(partners[3], 0);
+  EXPECT_NEAR((target.target_point(partners[3]) - q[3]).norm(), 0.003, 1e-3);
+}
