@@ -1,6 +1,7 @@
 // bench_fusion: the fusion of 4 float views (reproject + vote, Alg. 1) at 640x480 and 1280x1024, 1 and 2
 // threads, with a memcpy of the same input bytes in the same run as the bandwidth floor.
 #include <cstring>
+#include <string>
 #include <random>
 #include <vector>
 
@@ -12,6 +13,12 @@ using namespace binpick;
 
 int main(int argc, char** argv) {
   const bench::Options opt = bench::parse_options(argc, argv);
+#if defined(__x86_64__)
+  if (std::string(BINPICK_BENCH_ISA) == "x86-64-v3" && !__builtin_cpu_supports("avx2")) {
+    bench::JsonLine("skipped").str("isa", BINPICK_BENCH_ISA).str("reason", "CPU without AVX2").print();
+    return 0;
+  }
+#endif
   const int n_views = 4;
   struct Size {
     int w, h;
@@ -68,7 +75,7 @@ int main(int argc, char** argv) {
       const bench::Stats rp = bench::measure(
           [&] { detail::reproject_to_plane(views[1], rays, T, cam, planes[1].data()); }, opt.warmup, opt.trials);
       bench::JsonLine("reproject_one_view")
-          .str("impl", "binpick").num("threads", 1).num("width", sz.w).num("height", sz.h).num("views", 1)
+          .str("impl", "binpick").str("isa", BINPICK_BENCH_ISA).num("threads", 1).num("width", sz.w).num("height", sz.h).num("views", 1)
           .stats(rp).num("ms_per_view", rp.median).print();
       for (int i = 0; i < n_views; ++i)
         detail::reproject_to_plane(views[std::size_t(i)], rays,
@@ -87,7 +94,7 @@ int main(int argc, char** argv) {
         slow += hi > 0 && hi - lo >= 0.002f;
       }
       bench::JsonLine("vote_planes")
-          .str("impl", "binpick").num("threads", 1).num("width", sz.w).num("height", sz.h).num("views", n_views)
+          .str("impl", "binpick").str("isa", BINPICK_BENCH_ISA).num("threads", 1).num("width", sz.w).num("height", sz.h).num("views", n_views)
           .stats(vt).num("ms_per_view", vt.median / n_views).num("disagreeing_pixel_fraction", double(slow) / out.size())
           .print();
     }
@@ -96,6 +103,7 @@ int main(int argc, char** argv) {
     for (int threads : opt.threads) {
       FusionSettings<float> s;
       s.num_threads = threads;
+      s.register_views = false;
       std::size_t valid = 0;
       const bench::Stats st = bench::measure(
           [&] {
@@ -104,10 +112,34 @@ int main(int argc, char** argv) {
           },
           opt.warmup, opt.trials);
       bench::JsonLine("fuse")
-          .str("impl", "binpick").num("threads", threads).num("width", sz.w).num("height", sz.h).num("views", n_views)
+          .str("impl", "binpick").str("isa", BINPICK_BENCH_ISA).num("threads", threads).num("width", sz.w).num("height", sz.h).num("views", n_views)
           .stats(st).num("ms_per_view", st.median / n_views).num("ratio_to_memcpy", st.median / mc.median)
           .num("valid_pixels_fused", double(valid)).num("valid_pixels_view1", double(imgs[0].valid_count()))
           .print();
+    }
+    // With registration (§III.B.2): views 2..4 start from kinematic poses read 20 ms late at 0.5 m/s.
+    std::vector<Isometry3f> T_kinematic = T_base_views;
+    for (int i = 1; i < n_views; ++i) {
+      Isometry3f late = T_base_views[std::size_t(i)];
+      late.translation().x() -= 0.01f;
+      late.linear() = late.linear() * Eigen::AngleAxisf(0.03f, Eigen::Vector3f::UnitY()).toRotationMatrix();
+      T_kinematic[std::size_t(i)] = late;
+    }
+    for (int threads : opt.threads) {
+      FusionSettings<float> s;
+      s.num_threads = threads;
+      FusionResult<float> last;
+      const bench::Stats st = bench::measure([&] { last = fuser.fuse(views, T_kinematic, s); }, opt.warmup, opt.trials);
+      double rmse = 0, iters = 0, inliers = 0;
+      for (int i = 1; i < n_views; ++i) {
+        rmse += last.views[std::size_t(i)].icp_rmse / (n_views - 1);
+        iters += last.views[std::size_t(i)].icp_iterations;
+        inliers += double(last.views[std::size_t(i)].icp_inliers);
+      }
+      bench::JsonLine("fuse_with_registration")
+          .str("impl", "binpick").str("isa", BINPICK_BENCH_ISA).num("threads", threads).num("width", sz.w).num("height", sz.h).num("views", n_views)
+          .stats(st).num("ms_per_view", st.median / n_views).num("rmse", rmse).num("iterations", iters)
+          .num("correspondences", inliers).num("valid_pixels_fused", double(last.valid_pixels)).print();
     }
   }
   return 0;

@@ -16,6 +16,7 @@ const char* kUsage = R"(usage: binpick_fuse --intrinsics fx,fy,cx,cy,width,heigh
                     --view depth1.png pose1.txt [--view depth2.png pose2.txt ...]
                     --out fused.png [--votes votes.png] [--min-votes K]
                     [--accuracy A] [--delta D] [--target-pose P] [--threads N]
+                    [--register on|off]
 
 Fuses the depth views into ONE depth image of view 1 (paper Alg. 1): every other view is reprojected
 into view 1 and each pixel keeps the depth most views agree on (within D).
@@ -32,13 +33,17 @@ into view 1 and each pixel keeps the depth most views agree on (within D).
   --target-pose  fuse all views into a virtual camera at this pose (camera-to-world file) that has no
                  depth of its own, e.g. to check a fusion against a frame left out of it
   --threads      threads (default 1, 0 = all cores)
-Prints one JSON line: valid pixels per view, valid pixels after fusion, time.
+  --register     on (default): register views 2..n to view 1 with point-to-plane ICP starting from
+                 their poses, keeping a pose when ICP fails or corrects it by more than 3 cm / 5 deg
+Prints one JSON line: valid pixels per view, per-view pose source and ICP status, RMSE [m] and
+correction (translation [m], rotation [deg]), valid pixels after fusion, time.
 )";
 
 struct Args {
   std::string intrinsics, out, votes, target_pose;
   double depth_scale = 0, accuracy = 0.001, delta = 0;
   int min_votes = 1, threads = 1;
+  bool register_views = true;
   std::vector<std::pair<std::string, std::string>> views;
 };
 
@@ -69,7 +74,11 @@ Args parse(int argc, char** argv) {
     else if (k == "--accuracy") a.accuracy = binpick::tools::parse_number(value(), "--accuracy");
     else if (k == "--delta") a.delta = binpick::tools::parse_number(value(), "--delta");
     else if (k == "--target-pose") a.target_pose = value();
-    else if (k == "--threads") a.threads = int(binpick::tools::parse_number(value(), "--threads"));
+    else if (k == "--register") {
+      const std::string v = value();
+      if (v != "on" && v != "off") usage_error("--register takes on or off");
+      a.register_views = v == "on";
+    } else if (k == "--threads") a.threads = int(binpick::tools::parse_number(value(), "--threads"));
     else usage_error("unknown argument '" + k + "'");
   }
   if (a.intrinsics.empty()) usage_error("--intrinsics is required");
@@ -110,6 +119,7 @@ int main(int argc, char** argv) {
     s.min_votes = args.min_votes;
     s.compute_votes = !args.votes.empty();
     s.num_threads = args.threads;
+    s.register_views = args.register_views;
     Fuser<float, PinholeCamera<float>> fuser(camera);
     const auto t0 = std::chrono::steady_clock::now();
     const FusionResult<float> r = args.target_pose.empty()
@@ -131,7 +141,16 @@ int main(int argc, char** argv) {
                        ", \"height\": " + std::to_string(k.height) + ", \"views\": [";
     for (std::size_t i = 0; i < r.views.size(); ++i)
       json += std::string(i ? ", " : "") + "{\"depth\": " + tools::json_string(args.views[i].first) +
-              ", \"valid_pixels\": " + std::to_string(r.views[i].valid_pixels) + "}";
+              ", \"valid_pixels\": " + std::to_string(r.views[i].valid_pixels) +
+              ", \"pose\": " + tools::json_string(to_string(r.views[i].pose)) +
+              (r.views[i].pose == ViewPose::reference || r.views[i].pose == ViewPose::kinematic
+                   ? std::string()
+                   : ", \"icp_status\": " + tools::json_string(to_string(r.views[i].icp_status)) +
+                         ", \"icp_rmse_m\": " + tools::json_number(r.views[i].icp_rmse) +
+                         ", \"icp_inliers\": " + std::to_string(r.views[i].icp_inliers) +
+                         ", \"correction_m\": " + tools::json_number(r.views[i].correction_translation) +
+                         ", \"correction_deg\": " + tools::json_number(r.views[i].correction_rotation * 180.0 / M_PI)) +
+              "}";
     json += "], \"target\": " + std::string(args.target_pose.empty() ? "\"view1\"" : tools::json_string(args.target_pose));
     json += ", \"delta_m\": " + tools::json_number(s.effective_delta()) + ", \"min_votes\": " + std::to_string(s.min_votes);
     json += ", \"valid_pixels_fused\": " + std::to_string(r.valid_pixels) + ", \"time_ms\": " + tools::json_number(ms) + "}";

@@ -36,6 +36,13 @@ if [ -n "$data" ] && [ -d "$data/redwood_rgbd" ]; then
     || fail "fusion of the Redwood frames failed"
   echo "$out"
   echo "$out" | grep -q '"valid_pixels_fused": [1-9]' || fail "no valid fused pixels"
+  echo "$out" | grep -q '"icp_status"' || fail "no per-view registration report"
+  off=$("$bin" --intrinsics 525,525,319.5,239.5,640,480 --depth-scale 1000 --register off \
+        --view "$rw/depth/00000.png" "$tmp/pose0.txt" --view "$rw/depth/00001.png" "$tmp/pose1.txt" \
+        --out "$tmp/fused_off.png" --accuracy 0.005) || fail "fusion without registration failed"
+  echo "$off" | grep -q '"icp_status"' && fail "--register off still registered"
+  expect_error "$bin" --intrinsics 525,525,319.5,239.5,640,480 --depth-scale 1000 --register maybe \
+        --view "$rw/depth/00000.png" "$tmp/pose0.txt" --out "$tmp/o.png"
   [ -s "$tmp/fused.png" ] && [ -s "$tmp/votes.png" ] || fail "outputs not written"
   # Fusing into frame 0's pose from frames 1 and 2 only (a virtual view) must also work.
   "$bin" --intrinsics 525,525,319.5,239.5,640,480 --depth-scale 1000 --target-pose "$tmp/pose0.txt" \

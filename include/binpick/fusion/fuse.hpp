@@ -1,8 +1,11 @@
 #pragma once
 /// \file fuse.hpp
-/// The fusion pipeline (paper §III.B, Alg. 1, Figs. 3–4): views 2..n are reprojected into view 1 (the
-/// reference, captured at the pull-up stop with an exact pose) and voted per pixel into ONE depth image
-/// of view 1. The result is expressed in the reference camera; `T_base_target` puts it into the robot
+/// The fusion pipeline (paper §III.B, Alg. 1, Figs. 3–4): views 2..n, captured while the robot moves
+/// and so with late kinematic poses, are first registered to view 1 (the reference, captured at the
+/// pull-up stop with an exact pose) with point-to-plane ICP starting from their kinematic poses
+/// (§III.B.2), then reprojected into view 1 and voted per pixel into ONE depth image of view 1. When
+/// ICP fails or would move a view further than a bound from its kinematic prior, the kinematic pose is
+/// kept and the per-view report says so. The result is expressed in the reference camera; `T_base_target` puts it into the robot
 /// base frame (Fig. 3: the reference view is the bridge to the robot).
 ///
 /// \code
@@ -16,14 +19,36 @@
 #include <cmath>
 #include <vector>
 
+#include "binpick/core/brown_conrady_camera.hpp"
 #include "binpick/core/camera_model.hpp"
 #include "binpick/core/depth_image.hpp"
 #include "binpick/core/parallel.hpp"
 #include "binpick/core/pose.hpp"
 #include "binpick/fusion/reproject.hpp"
 #include "binpick/fusion/voting.hpp"
+#include "binpick/registration/align_depth_views.hpp"
 
 namespace binpick {
+namespace detail {
+
+/// A camera that sees every k-th pixel of `camera` (pixel u' is pixel k u'): intrinsics divided by k,
+/// lens distortion (in normalized coordinates) unchanged.
+template <typename Scalar>
+PinholeCamera<Scalar> scaled_camera(const PinholeCamera<Scalar>& c, int k) {
+  return PinholeCamera<Scalar>(c.fx() / Scalar(k), c.fy() / Scalar(k), c.cx() / Scalar(k), c.cy() / Scalar(k),
+                               (c.width() + k - 1) / k, (c.height() + k - 1) / k);
+}
+template <typename Scalar>
+BrownConradyCamera<Scalar> scaled_camera(const BrownConradyCamera<Scalar>& c, int k) {
+  return BrownConradyCamera<Scalar>(c.fx() / Scalar(k), c.fy() / Scalar(k), c.cx() / Scalar(k), c.cy() / Scalar(k),
+                                    (c.width() + k - 1) / k, (c.height() + k - 1) / k, c.distortion());
+}
+template <typename T, typename = void>
+struct is_scalable_camera : std::false_type {};
+template <typename T>
+struct is_scalable_camera<T, std::void_t<decltype(scaled_camera(std::declval<const T&>(), 2))>> : std::true_type {};
+
+}  // namespace detail
 
 /// Settings of the fusion pipeline.
 template <typename Scalar>
@@ -32,14 +57,71 @@ struct FusionSettings {
   Scalar delta = Scalar(0);                ///< [m] voting threshold δ; 0 = 2 × sensor_accuracy (Alg. 1)
   int min_votes = 1;                       ///< fewer votes → no measurement (1: a single view passes)
   bool compute_votes = false;              ///< also output the per-pixel vote count (a confidence map)
-  int num_threads = 1;                     ///< 0 = all cores; the output is the same for any count
+  int num_threads = 1;                     ///< 0 = all cores; the voted output is the same for any count
+
+  /// Register views 2..n to view 1 with point-to-plane ICP before voting (§III.B.2).
+  bool register_views = true;
+  /// ICP of the registration: projective association into view 1, every 4th row and column of the
+  /// source, Tukey kernel. Its num_threads is replaced by this struct's.
+  IcpSettings<Scalar> icp = default_icp();
+  ProjectiveAssociationSettings association{};  ///< search window in view 1
+  /// View 1 is sampled every `reference_stride`-th row and column (with intrinsics scaled to match,
+  /// which is exact) for its normals and the association: the source is already every 4th pixel, so
+  /// a full-resolution reference only costs time. 1 = full resolution (also used for camera models
+  /// other than pinhole and Brown–Conrady).
+  int reference_stride = 2;
+  OrganizedNormalSettings<Scalar> normals{};    ///< normals of view 1 and of the subsampled sources
+  /// Bounds on the ICP correction relative to the kinematic pose; a larger correction is not trusted
+  /// and the kinematic pose is kept. Defaults: 3 cm and 5° (motion error is a few mm and about 1°).
+  Scalar max_correction_translation = Scalar(0.03);  ///< [m]
+  Scalar max_correction_rotation = Scalar(0.0873);   ///< [rad]
 
   Scalar effective_delta() const { return delta > Scalar(0) ? delta : Scalar(2) * sensor_accuracy; }
+
+  static IcpSettings<Scalar> default_icp() {
+    IcpSettings<Scalar> s;
+    s.stride = 4;
+    s.max_iterations = 20;
+    s.max_correspondence_distance = Scalar(0.02);
+    s.kernel = RobustKernel::tukey;
+    s.kernel_scale = Scalar(0.01);
+    return s;
+  }
 };
 
+/// How a view's pose was obtained.
+enum class ViewPose {
+  reference,         ///< the target view itself (exact pose, not registered)
+  kinematic,         ///< registration off: the kinematic pose as given
+  registered,        ///< ICP refined the kinematic pose
+  kept_icp_failed,   ///< ICP failed (too few correspondences, diverged): the kinematic pose was kept
+  kept_too_far,      ///< ICP moved the view beyond the correction bounds: the kinematic pose was kept
+};
+
+inline const char* to_string(ViewPose p) {
+  switch (p) {
+    case ViewPose::reference: return "reference";
+    case ViewPose::kinematic: return "kinematic";
+    case ViewPose::registered: return "registered";
+    case ViewPose::kept_icp_failed: return "kept_icp_failed";
+    default: return "kept_too_far";
+  }
+}
+
 /// What happened to one input view.
+template <typename Scalar>
 struct FusionViewReport {
   std::size_t valid_pixels = 0;  ///< valid depth pixels in the input view
+  ViewPose pose = ViewPose::kinematic;
+  /// The pose used for the view: the registered one, or the kinematic one when kept.
+  Isometry3<Scalar> T_base_view = Isometry3<Scalar>::Identity();
+  // Registration diagnostics (meaningful when registration ran for this view):
+  IcpStatus icp_status = IcpStatus::converged;
+  Scalar icp_rmse = Scalar(0);            ///< [m]
+  std::size_t icp_inliers = 0;
+  int icp_iterations = 0;
+  Scalar correction_translation = Scalar(0);  ///< [m] ICP result vs the kinematic pose (even if rejected)
+  Scalar correction_rotation = Scalar(0);     ///< [rad]
 };
 
 template <typename Scalar>
@@ -47,7 +129,7 @@ struct FusionResult {
   DepthImage<Scalar> depth;         ///< fused depth of the target view [m]; 0 = no measurement
   VoteMap votes;                    ///< votes per pixel; empty unless settings.compute_votes
   Isometry3<Scalar> T_base_target;  ///< pose of the target camera in the robot base frame
-  std::vector<FusionViewReport> views;
+  std::vector<FusionViewReport<Scalar>> views;
   std::size_t valid_pixels = 0;     ///< valid pixels of the fused depth
 };
 
@@ -112,6 +194,11 @@ class Fuser {
     result.T_base_target = T_base_target;
     result.views.resize(views.size());
     const Isometry3<Scalar> T_target_base = T_base_target.inverse(Eigen::Isometry);
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      result.views[i].T_base_view = T_base_views[i];
+      result.views[i].pose = i < first_reprojected ? ViewPose::reference : ViewPose::kinematic;
+    }
+    if (settings.register_views && views.size() > 1) register_to_first(views, T_base_views, settings, threads, result);
 
     // Line 1 of Alg. 1: one plane per view (the target view decoded, the others reprojected). Views are
     // independent, so threads take whole views and the result does not depend on the thread count.
@@ -123,7 +210,8 @@ class Fuser {
       result.views[std::size_t(i)].valid_pixels =
           std::size_t(i) < first_reprojected
               ? decode(view, plane)
-              : detail::reproject_to_plane(view, rays_, Isometry3<Scalar>(T_target_base * T_base_views[std::size_t(i)]),
+              : detail::reproject_to_plane(view, rays_,
+                                           Isometry3<Scalar>(T_target_base * result.views[std::size_t(i)].T_base_view),
                                            camera_, plane);
     }
 
@@ -143,12 +231,65 @@ class Fuser {
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
     for (long v = 0; v < nrows; ++v) {
       const std::size_t b = std::size_t(v) * std::size_t(w);
-      detail::vote_range(ptrs.data(), int(nplanes), b, b + std::size_t(w), delta, settings.min_votes, result.depth.data(),
+      detail::vote_pixels(ptrs.data(), int(nplanes), b, b + std::size_t(w), delta, settings.min_votes, result.depth.data(),
                          vote_ptr);
     }
 
     result.valid_pixels = result.depth.valid_count();
     return result;
+  }
+
+  // The projective target of the registration: view 1, decimated when the camera model allows it.
+  auto make_reference(const DepthImageView<Scalar>& view, const FusionSettings<Scalar>& settings) const {
+    const int k = settings.reference_stride;
+    if constexpr (detail::is_scalable_camera<Camera>::value) {
+      const Camera cam = detail::scaled_camera(camera_, k);
+      DepthImage<Scalar> dec(cam.width(), cam.height());
+      for (int v = 0; v < dec.height(); ++v)
+        for (int u = 0; u < dec.width(); ++u) dec.at(u, v) = view.depth(u * k, v * k);
+      return make_projective_target(dec.view(), cam, settings.association, settings.normals);
+    } else {
+      return make_projective_target(view, camera_, settings.association, settings.normals);
+    }
+  }
+
+  // §III.B.2: views[1..] are registered to views[0], whose pose is exact, starting from their
+  // kinematic poses. Fills each view's pose and diagnostics in `result`.
+  void register_to_first(const std::vector<DepthImageView<Scalar>>& views, const std::vector<Isometry3<Scalar>>& T_base_views,
+                         const FusionSettings<Scalar>& settings, int threads, FusionResult<Scalar>& result) const {
+    require(std::isfinite(settings.max_correction_translation) && settings.max_correction_translation > Scalar(0),
+            "max_correction_translation", "must be finite and > 0");
+    require(std::isfinite(settings.max_correction_rotation) && settings.max_correction_rotation > Scalar(0),
+            "max_correction_rotation", "must be finite and > 0");
+    require(settings.reference_stride >= 1, "reference_stride", "must be >= 1");
+    const auto reference = make_reference(views[0], settings);
+    const Isometry3<Scalar> T_ref_base = T_base_views[0].inverse(Eigen::Isometry);
+    IcpSettings<Scalar> icp = settings.icp;
+    icp.num_threads = threads;
+    for (std::size_t i = 1; i < views.size(); ++i) {
+      FusionViewReport<Scalar>& rep = result.views[i];
+      const Isometry3<Scalar> T_ref_view_prior = T_ref_base * T_base_views[i];
+      const IcpResult<Scalar> r = align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp, settings.normals);
+      const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
+      rep.icp_status = r.status;
+      rep.icp_rmse = r.rmse;
+      rep.icp_inliers = r.inliers;
+      rep.icp_iterations = r.iterations;
+      rep.correction_translation = correction.translation().norm();
+      rep.correction_rotation = rotation_angle(correction);
+      // A run that hit max_iterations still moved the view toward view 1; within the bounds it is
+      // better than the late kinematic pose.
+      const bool usable = r.ok() || r.status == IcpStatus::max_iterations;
+      if (!usable) {
+        rep.pose = ViewPose::kept_icp_failed;
+      } else if (!(rep.correction_translation <= settings.max_correction_translation &&
+                   rep.correction_rotation <= settings.max_correction_rotation)) {
+        rep.pose = ViewPose::kept_too_far;
+      } else {
+        rep.pose = ViewPose::registered;
+        rep.T_base_view = T_base_views[0] * r.T_target_source;
+      }
+    }
   }
 
   // The target view's own depths as a plane (+inf = none); returns its valid pixel count.
