@@ -5,9 +5,11 @@
 /// the simulation.
 #include "binpick/sim/fake_robot.hpp"
 #include "binpick/sim/fake_sensor.hpp"
+#include "binpick/sim/grasp_model.hpp"
 #include "binpick/sim/mesh.hpp"
 #include "binpick/sim/parts.hpp"
 #include "binpick/sim/ray_caster.hpp"
+#include "binpick/sim/reference_estimator.hpp"
 #include "binpick/sim/scene.hpp"
 #include "binpick/sim/sim_clock.hpp"
 #include "binpick/sim/stereo_sensor.hpp"

@@ -1,0 +1,143 @@
+#pragma once
+/// \file grasp_model.hpp
+/// The simulated world judging a pick: it reads the scene's ground truth (unlike the estimator). A pick
+/// at an estimated grasp pose succeeds when
+///  1. the grasp lies within the gripper's tolerance of a true grasp of a part of the same type — the
+///     part's registered grasps under every symmetry of the part (position, approach axis and, for
+///     jaws, the closing axis up to its sign), and
+///  2. the gripper (two-finger jaws: two boxes; vacuum cup: a cylinder; estimator_model.hpp) hits
+///     neither the bin (floor and walls) nor the collision spheres of any other part — the paper's
+///     failed picks came from gripper–box interference (§IV.B).
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "binpick/core/errors.hpp"
+#include "binpick/core/pose.hpp"
+#include "binpick/sim/detail/estimator_model.hpp"
+#include "binpick/sim/detail/estimator_symmetry.hpp"
+#include "binpick/sim/parts.hpp"
+#include "binpick/sim/scene.hpp"
+
+namespace binpick::sim {
+
+template <typename Scalar>
+struct GraspModelSettings {
+  Scalar position_tolerance = Scalar(0.003);   ///< grasp point within this of a true grasp point [m]
+  Scalar angle_tolerance = Scalar(0.2);        ///< approach (and jaw closing) axes within this [rad] (≈ 11°)
+  Scalar sample_spacing = Scalar(0.001);       ///< gripper shape sampled this finely against the bin [m]
+  GripperGeometry<Scalar> gripper;             ///< the shapes (same defaults as the estimator's)
+};
+
+enum class PickStatus {
+  success,
+  no_matching_grasp,   ///< no part of that type has a true grasp within tolerance
+  bin_collision,       ///< the gripper hits the floor or a wall
+  part_collision,      ///< the gripper hits a neighbouring part
+};
+
+inline const char* to_string(PickStatus s) {
+  switch (s) {
+    case PickStatus::success: return "success";
+    case PickStatus::no_matching_grasp: return "no_matching_grasp";
+    case PickStatus::bin_collision: return "bin_collision";
+    default: return "part_collision";
+  }
+}
+
+template <typename Scalar>
+struct PickOutcome {
+  PickStatus status = PickStatus::no_matching_grasp;
+  int part_index = -1;  ///< index into scene.parts() of the part the grasp matched, -1 if none
+  int part_id = -1;     ///< its stable id (Scene::remove_part takes it)
+  Scalar position_error = std::numeric_limits<Scalar>::infinity();  ///< to the matched true grasp [m]
+  Scalar angle_error = std::numeric_limits<Scalar>::infinity();     ///< approach axis error [rad]
+  bool success() const { return status == PickStatus::success; }
+};
+
+/// Judges a pick of a `type` part at T_base_grasp (gripper `kind`, jaw `opening` [m]) in `scene`.
+/// Throws std::invalid_argument naming `T_base_grasp` for an invalid pose.
+template <typename Scalar>
+PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, const Isometry3<Scalar>& T_base_grasp,
+                                  cycle::GripperKind kind, Scalar opening, const GraspModelSettings<Scalar>& settings = {}) {
+  require_valid_pose(T_base_grasp, "T_base_grasp");
+  PickOutcome<Scalar> out;
+  const PartModel<Scalar>& model = scene.model(type);
+  const auto syms = detail::symmetry_rotations<Scalar>(detail::part_symmetry(type), 360);
+  const Vector3<Scalar> a_est = T_base_grasp.linear().col(2), x_est = T_base_grasp.linear().col(0);
+  // 1. The nearest matching true grasp.
+  Scalar best = std::numeric_limits<Scalar>::infinity();
+  for (std::size_t i = 0; i < scene.parts().size(); ++i) {
+    const auto& part = scene.parts()[i];
+    if (part.type != type) continue;
+    if ((part.T_base_part.translation() - T_base_grasp.translation()).norm() > model.bounding_radius + settings.position_tolerance)
+      continue;
+    for (const Matrix3<Scalar>& S : syms) {
+      Isometry3<Scalar> T_sym = Isometry3<Scalar>::Identity();
+      T_sym.linear() = S;  // symmetries fix the part origin
+      for (const auto& g : model.grasps) {
+        const Isometry3<Scalar> T_true = part.T_base_part * T_sym * g.T_part_grasp;
+        const Scalar dp = (T_true.translation() - T_base_grasp.translation()).norm();
+        const Scalar da = std::acos(std::clamp(T_true.linear().col(2).dot(a_est), Scalar(-1), Scalar(1)));
+        if (dp > settings.position_tolerance || da > settings.angle_tolerance) continue;
+        if (kind == cycle::GripperKind::two_finger) {
+          const Scalar dx = std::acos(std::clamp(std::abs(T_true.linear().col(0).dot(x_est)), Scalar(0), Scalar(1)));
+          if (dx > settings.angle_tolerance) continue;  // jaws are symmetric: x and −x close alike
+        }
+        const Scalar cost = dp / settings.position_tolerance + da / settings.angle_tolerance;
+        if (cost < best) {
+          best = cost;
+          out.part_index = int(i);
+          out.part_id = part.id;
+          out.position_error = dp;
+          out.angle_error = da;
+        }
+      }
+    }
+  }
+  if (out.part_index < 0) return out;
+
+  // 2. Collisions at the estimated grasp pose: bin boxes by samples, neighbours' spheres exactly.
+  const auto& bin = scene.bin();
+  const Scalar L = bin.length / 2, W = bin.width / 2;
+  for (const Vector3<Scalar>& q : detail::gripper_samples(settings.gripper, kind, opening, settings.sample_spacing)) {
+    const Vector3<Scalar> p = T_base_grasp * q;
+    const bool below_floor = p.z() < Scalar(0);
+    // The four walls (scene.hpp bin_mesh): the frame between the inner and outer rectangles.
+    const Scalar ax = std::abs(p.x()), ay = std::abs(p.y()), t = bin.wall_thickness;
+    const bool in_wall = p.z() <= bin.wall_height && ax <= L + t && ay <= W + t && (ax >= L || ay >= W);
+    if (below_floor || in_wall) {
+      out.status = PickStatus::bin_collision;
+      return out;
+    }
+  }
+  const Isometry3<Scalar> T_grasp_base = T_base_grasp.inverse(Eigen::Isometry);
+  const auto& gg = settings.gripper;
+  for (std::size_t i = 0; i < scene.parts().size(); ++i) {
+    if (int(i) == out.part_index) continue;
+    for (const auto& s : scene.world_spheres(scene.parts()[i])) {
+      const Vector3<Scalar> c = T_grasp_base * s.centre;
+      bool hit = false;
+      if (kind == cycle::GripperKind::two_finger) {
+        for (const auto& b : detail::finger_boxes(gg, opening)) {
+          const Vector3<Scalar> q = c.cwiseMax(b.lo).cwiseMin(b.hi);
+          hit = hit || (q - c).squaredNorm() < s.radius * s.radius;
+        }
+      } else {
+        const Scalar dz = c.z() - std::clamp(c.z(), -gg.cup_length, Scalar(0));
+        const Scalar dr = std::max(c.template head<2>().norm() - gg.cup_radius, Scalar(0));
+        hit = dz * dz + dr * dr < s.radius * s.radius;
+      }
+      if (hit) {
+        out.status = PickStatus::part_collision;
+        return out;
+      }
+    }
+  }
+  out.status = PickStatus::success;
+  return out;
+}
+
+}  // namespace binpick::sim

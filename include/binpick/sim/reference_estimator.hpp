@@ -1,0 +1,711 @@
+#pragma once
+/// \file reference_estimator.hpp
+/// A reference 6D pose estimator with grasp selection for the simulated cell, a model of the
+/// `PoseEstimator` concept (cycle/drivers_estimator.hpp). It stands in for the paper's template-based
+/// CPU estimator [21] (§III.A): the fused depth of the reference view goes in, recognized top parts
+/// with a confidence in % and a grasp pose come out.
+///
+/// It sees only what a real estimator sees — the fused depth (+ optional votes), the camera and the
+/// part models — and never the simulated scene: no constructor or member takes a `Scene`, and this
+/// header does not include scene.hpp (tests/estimator guards both).
+///
+/// Per fused image:
+///  1. grid: every `stride`-th pixel backprojected, normals from grid neighbours;
+///  2. segments: 4-connected cells whose depth is continuous (step ≤ edge_jump) and whose surface is
+///     not concave between them (touching parts meet in concave creases); segments larger than a part
+///     are split around their top-most points, segments much larger than any part (floor, walls) and
+///     small ones are dropped; candidates are taken top-most first (smallest depth);
+///  3. fit: for each candidate and model, the model's principal axes are aligned to the segment's in
+///     every distinct way (24 signed axis permutations, fewer after removing the part's symmetries),
+///     each start refined by point-to-plane ICP of the segment on the model's coarse surface samples
+///     (registration/icp.hpp with a kd-tree association); the best starts are refined on the fine
+///     samples with all depth points around the part;
+///  4. score: the fitted model's sampled surface is z-buffered into the grid; a visible cell is
+///     supported when the measured depth lies within δ, empty when the sensor sees through it (the
+///     measured depth lies beyond the model by more than δ): confidence = 100 · (supported − empty) /
+///     visible, in [0, 100];
+///  5. keep: hypotheses above min_confidence, greedily by confidence, whose supported cells overlap
+///     no kept one by more than max_overlap;
+///  6. grasp: of the grasps registered on the model, those approaching along the line of sight within
+///     max_approach_angle whose gripper shape (detail::gripper_samples) stays in measured free space;
+///     the one most aligned with the line of sight, else (flagged unreachable) the most aligned one.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <vector>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "binpick/core/camera_model.hpp"
+#include "binpick/core/depth_image.hpp"
+#include "binpick/core/errors.hpp"
+#include "binpick/core/parallel.hpp"
+#include "binpick/core/pose.hpp"
+#include "binpick/cycle/drivers_estimator.hpp"
+#include "binpick/registration/icp.hpp"
+#include "binpick/sim/detail/estimator_model.hpp"
+#include "binpick/sim/parts.hpp"
+
+namespace binpick::sim {
+
+/// Settings of the reference estimator (defaults tuned for the simulated sensor at ~0.3 m).
+template <typename Scalar>
+struct ReferenceEstimatorSettings {
+  int stride = 0;                              ///< pixel stride of the grid [px]; 0 = ceil(width / 640)
+  int min_votes = 0;                           ///< pixels with fewer votes are ignored (when votes are given)
+  /// Region of interest [px], inclusive: the bin's inside as the integrator configures it (walls and
+  /// rims outside it look like parts to any model fitter). Default: the whole image.
+  int roi_u0 = 0, roi_v0 = 0, roi_u1 = std::numeric_limits<int>::max(), roi_v1 = std::numeric_limits<int>::max();
+  int normal_offset = 2;                       ///< grid cells spanning the normal's tangents (>= 1)
+  Scalar edge_jump = Scalar(0.0025);           ///< depth step between grid neighbours that splits segments [m]
+  Scalar concavity_tolerance = Scalar(0.35);   ///< (n_b − n_a)·(p_b − p_a)/|p_b − p_a| below −this: concave crease
+  Scalar min_segment_area = Scalar(15e-6);     ///< smaller segments are no candidates [m²]
+  Scalar max_segment_area_factor = Scalar(12); ///< segments larger than this × the largest model's area are background
+  Scalar planar_rms = Scalar(0.001);           ///< larger-than-a-part segments flatter than this are background [m]
+  Scalar max_occluded_border = Scalar(0.35);   ///< candidates with more of their border under nearer surface are dropped
+  bool split_large_segments = false;           ///< split part-sized pieces off larger non-flat segments (else: background)
+  int max_candidates = 30;                     ///< candidates fitted per image (top-most first)
+  Scalar model_spacing = Scalar(0.0005);       ///< fine model samples (scoring, final ICP) [m]
+  Scalar voxel_size = Scalar(0.0006);          ///< voxels of the model's nearest-sample lookup [m]
+  int max_coarse_source_points = 120;          ///< segment points used by the first ICP
+  int coarse_iterations = 10;                  ///< ICP iterations from each start
+  Scalar coarse_distance = Scalar(0.006);      ///< partner distance of the first ICP [m]
+  int refined_starts = 2;                      ///< best starts refined on the fine samples
+  int fine_iterations = 8;                     ///< ICP iterations of each refinement round (two rounds)
+  Scalar fine_distance = Scalar(0.003);        ///< partner distance of the first refinement round [m] (second: half)
+  Scalar support_distance = Scalar(0.0015);    ///< δ: measured depth within this of the model supports it [m]
+  Scalar grazing_cosine = Scalar(0.25);        ///< model samples seen more obliquely than this are not scored
+  Scalar explain_distance = Scalar(0.0015);    ///< a segment point this near the fitted model is explained [m]
+  Scalar min_segment_explained = Scalar(0.6);  ///< fits explaining less of their segment are dropped
+  Scalar min_confidence = Scalar(35);          ///< [%] weaker hypotheses are dropped
+  Scalar max_overlap = Scalar(0.3);            ///< share of a hypothesis' supported cells another kept one may own
+  Scalar max_approach_angle = Scalar(1.05);    ///< grasp approach vs line of sight [rad] (60°)
+  Scalar collision_margin = Scalar(0.001);     ///< gripper samples this far behind a measured surface collide [m]
+  GripperGeometry<Scalar> gripper;             ///< shapes checked against the depth
+  int num_threads = 1;                         ///< candidates in parallel (0 = all cores); same output for any count
+};
+
+/// Diagnostics of one recognized object (same order as EstimationResult::objects).
+template <typename Scalar>
+struct RecognitionDetail {
+  bool grasp_reachable = false;  ///< a registered grasp approaches from above and misses the measured depth
+  int grasp_index = -1;          ///< index into the model's grasps
+  Scalar supported_share = 0;    ///< supported / visible cells
+  Scalar empty_share = 0;        ///< empty / visible cells
+  std::size_t visible_cells = 0;
+};
+
+template <typename Scalar>
+struct ReferenceEstimation {
+  cycle::EstimationResult<Scalar> result;
+  std::vector<RecognitionDetail<Scalar>> details;
+  int candidates = 0;        ///< segments fitted
+  int hypotheses = 0;        ///< ICP starts
+  double runtime_ms = 0;     ///< wall time of the call [ms]
+};
+
+namespace detail {
+
+/// The strided grid of backprojected depth.
+template <typename Scalar>
+struct DepthGrid {
+  int width = 0, height = 0, stride = 1;
+  std::vector<Vector3<Scalar>> points;   ///< camera frame [m]; z = 0: no measurement
+  std::vector<Vector3<Scalar>> normals;  ///< toward the camera; zero: unknown
+  std::vector<Scalar> footprint;         ///< side of the cell on the surface [m]
+  std::vector<Scalar> nearest;           ///< smallest valid depth of the 3×3 neighbourhood [m] (+inf: none)
+  std::size_t index(int i, int j) const { return std::size_t(j) * std::size_t(width) + std::size_t(i); }
+  bool valid(std::size_t k) const { return points[k].z() > Scalar(0); }
+};
+
+template <typename Scalar>
+struct Hypothesis {
+  int model = -1;
+  Isometry3<Scalar> T_camera_object = Isometry3<Scalar>::Identity();
+  Scalar confidence = 0;
+  std::size_t visible = 0, supported = 0, empty = 0;
+  std::vector<std::uint32_t> supported_cells;
+};
+
+}  // namespace detail
+
+/// The reference estimator (see the file comment). Models the PoseEstimator concept.
+template <typename Scalar_, typename Camera_>
+class ReferenceEstimator {
+ public:
+  using Scalar = Scalar_;
+  using Camera = Camera_;
+  static_assert(is_camera_model<Camera>::value, "Camera must model the camera concept (camera_model.hpp)");
+  using Vec3 = Vector3<Scalar>;
+  using Mat3 = Matrix3<Scalar>;
+
+  /// Recognizes the given part models (a bin usually holds one type). Throws std::invalid_argument
+  /// naming `models` when empty or a model has no mesh, or the setting out of range.
+  explicit ReferenceEstimator(const std::vector<PartModel<Scalar>>& models, const ReferenceEstimatorSettings<Scalar>& settings = {})
+      : s_(settings) {
+    require(!models.empty(), "models", "must not be empty");
+    const auto& s = settings;
+    require(s.stride >= 0, "stride", "must be >= 0 (0 = auto)");
+    require(s.min_votes >= 0, "min_votes", "must be >= 0");
+    require(s.normal_offset >= 1, "normal_offset", "must be >= 1");
+    require(std::isfinite(s.edge_jump) && s.edge_jump > 0, "edge_jump", "must be finite and > 0");
+    require(std::isfinite(s.concavity_tolerance) && s.concavity_tolerance >= 0, "concavity_tolerance", "must be finite and >= 0");
+    require(std::isfinite(s.min_segment_area) && s.min_segment_area >= 0, "min_segment_area", "must be finite and >= 0");
+    require(std::isfinite(s.max_segment_area_factor) && s.max_segment_area_factor > 0, "max_segment_area_factor", "must be > 0");
+    require(s.max_candidates >= 0, "max_candidates", "must be >= 0");
+    require(std::isfinite(s.max_occluded_border) && s.max_occluded_border >= 0, "max_occluded_border", "must be >= 0");
+    require(std::isfinite(s.planar_rms) && s.planar_rms >= 0, "planar_rms", "must be finite and >= 0");
+    require(std::isfinite(s.model_spacing) && s.model_spacing > Scalar(1e-5), "model_spacing", "must be > 1e-5 m");
+    require(std::isfinite(s.voxel_size) && s.voxel_size > Scalar(1e-4), "voxel_size", "must be > 1e-4 m");
+    require(s.max_coarse_source_points >= 6, "max_coarse_source_points", "must be >= 6");
+    require(s.coarse_iterations >= 1 && s.fine_iterations >= 1, "coarse_iterations", "ICP iterations must be >= 1");
+    require(std::isfinite(s.coarse_distance) && s.coarse_distance > 0, "coarse_distance", "must be finite and > 0");
+    require(std::isfinite(s.fine_distance) && s.fine_distance > 0, "fine_distance", "must be finite and > 0");
+    require(s.refined_starts >= 1, "refined_starts", "must be >= 1");
+    require(std::isfinite(s.support_distance) && s.support_distance > 0, "support_distance", "must be finite and > 0");
+    require(std::isfinite(s.grazing_cosine) && s.grazing_cosine >= 0 && s.grazing_cosine < 1, "grazing_cosine",
+            "must be in [0, 1)");
+    require(std::isfinite(s.explain_distance) && s.explain_distance > 0, "explain_distance", "must be finite and > 0");
+    require(std::isfinite(s.min_segment_explained) && s.min_segment_explained >= 0 && s.min_segment_explained <= 1,
+            "min_segment_explained", "must be in [0, 1]");
+    require(std::isfinite(s.min_confidence) && s.min_confidence >= 0 && s.min_confidence <= 100, "min_confidence",
+            "must be in [0, 100]");
+    require(std::isfinite(s.max_overlap) && s.max_overlap >= 0 && s.max_overlap <= 1, "max_overlap", "must be in [0, 1]");
+    require(std::isfinite(s.max_approach_angle) && s.max_approach_angle >= 0, "max_approach_angle", "must be >= 0");
+    require(std::isfinite(s.collision_margin) && s.collision_margin >= 0, "collision_margin", "must be >= 0");
+    require(s.num_threads >= 0, "num_threads", "must be >= 0 (0 = all cores)");
+    for (const auto& m : models) {
+      require(!m.mesh.triangles.empty(), "models", "a model has no mesh");
+      models_.push_back(detail::PreparedModel<Scalar>::make(
+          m, s.model_spacing, s.voxel_size, std::max(s.coarse_distance, s.fine_distance) + Scalar(0.001)));
+      max_area_ = std::max(max_area_, surface_area(m.mesh));
+      max_radius_ = std::max(max_radius_, m.bounding_radius);
+    }
+  }
+
+  /// Recognizes one part type (convenience).
+  explicit ReferenceEstimator(const PartModel<Scalar>& model, const ReferenceEstimatorSettings<Scalar>& settings = {})
+      : ReferenceEstimator(std::vector<PartModel<Scalar>>{model}, settings) {}
+
+  const ReferenceEstimatorSettings<Scalar>& settings() const { return s_; }
+  std::size_t num_models() const { return models_.size(); }
+  const PartModel<Scalar>& model(std::size_t i) const { return models_.at(i).model; }
+
+  /// The PoseEstimator entry point. `RecognizedObject::part_type` is `int(PartType)` of the model.
+  cycle::EstimationResult<Scalar> estimate(const cycle::EstimatorInput<Scalar, Camera>& input) {
+    return estimate_detailed(input).result;
+  }
+
+  /// estimate() with per-object diagnostics and the runtime. Throws std::invalid_argument naming
+  /// `camera` when input.camera is null and `depth` when its size differs from the camera's. Depth
+  /// without valid pixels (all 0 or NaN) gives status no_objects.
+  ReferenceEstimation<Scalar> estimate_detailed(const cycle::EstimatorInput<Scalar, Camera>& input) const {
+    const auto t0 = std::chrono::steady_clock::now();
+    require(input.camera != nullptr, "camera", "input.camera must not be null");
+    const Camera& cam = *input.camera;
+    require(input.depth.width() == cam.width() && input.depth.height() == cam.height(), "depth",
+            "image size differs from the camera's");
+    ReferenceEstimation<Scalar> out;
+    const detail::DepthGrid<Scalar> grid = make_grid(input, cam);
+    std::vector<std::vector<std::uint32_t>> candidates = segment(grid);
+    out.candidates = int(candidates.size());
+
+    std::vector<detail::Hypothesis<Scalar>> best(candidates.size());
+    std::vector<int> starts(candidates.size(), 0);
+    const int threads = binpick::detail::resolve_num_threads(s_.num_threads);
+    const long n = long(candidates.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
+    for (long c = 0; c < n; ++c) best[std::size_t(c)] = fit_candidate(grid, cam, candidates[std::size_t(c)], starts[std::size_t(c)]);
+    out.hypotheses = std::accumulate(starts.begin(), starts.end(), 0);
+
+    // 5. Keep the strongest, non-overlapping hypotheses (fixed order: the output does not depend on threads).
+    std::vector<std::size_t> order(best.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return best[a].confidence > best[b].confidence; });
+    std::vector<std::uint8_t> owned(grid.points.size(), 0);
+    for (const std::size_t k : order) {
+      const auto& h = best[k];
+      if (h.model < 0 || !(h.confidence >= s_.min_confidence) || h.supported_cells.empty()) continue;
+      std::size_t shared = 0;
+      for (const auto cell : h.supported_cells) shared += owned[cell];
+      if (Scalar(shared) > s_.max_overlap * Scalar(h.supported_cells.size())) continue;
+      for (const auto cell : h.supported_cells) owned[cell] = 1;
+      cycle::RecognizedObject<Scalar> obj;
+      const auto& pm = models_[std::size_t(h.model)];
+      obj.part_type = int(pm.model.type);
+      obj.T_camera_object = h.T_camera_object;
+      obj.confidence_percent = h.confidence;
+      obj.gripper = pm.model.gripper;
+      RecognitionDetail<Scalar> d;
+      choose_grasp(input, cam, pm, h.T_camera_object, obj.T_camera_grasp, d);
+      d.visible_cells = h.visible;
+      d.supported_share = h.visible ? Scalar(h.supported) / Scalar(h.visible) : Scalar(0);
+      d.empty_share = h.visible ? Scalar(h.empty) / Scalar(h.visible) : Scalar(0);
+      out.result.objects.push_back(obj);
+      out.details.push_back(d);
+    }
+    out.result.status = out.result.objects.empty() ? cycle::EstimationStatus::no_objects : cycle::EstimationStatus::ok;
+    out.runtime_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  }
+
+  /// Confidence [%] of a given pose of model `model_index` on the input (step 4 alone): what the
+  /// estimator would report for that pose. Throws like estimate_detailed and for a bad index.
+  Scalar score_pose(const cycle::EstimatorInput<Scalar, Camera>& input, std::size_t model_index,
+                    const Isometry3<Scalar>& T_camera_object) const {
+    require(input.camera != nullptr, "camera", "input.camera must not be null");
+    require(model_index < models_.size(), "model_index", "out of range");
+    require(input.depth.width() == input.camera->width() && input.depth.height() == input.camera->height(), "depth",
+            "image size differs from the camera's");
+    const auto grid = make_grid(input, *input.camera);
+    detail::Hypothesis<Scalar> h;
+    h.model = int(model_index);
+    h.T_camera_object = T_camera_object;
+    score(grid, *input.camera, models_[model_index], h);
+    return h.confidence;
+  }
+
+ private:
+  static Scalar surface_area(const TriangleMesh<Scalar>& m) {
+    Scalar a = 0;
+    for (const auto& t : m.triangles)
+      a += Scalar(0.5) * (m.vertices[std::size_t(t.y())] - m.vertices[std::size_t(t.x())])
+                             .cross(m.vertices[std::size_t(t.z())] - m.vertices[std::size_t(t.x())])
+                             .norm();
+    return a;
+  }
+
+  int stride_for(const Camera& cam) const {
+    return s_.stride > 0 ? s_.stride : std::max(1, (cam.width() + 639) / 640);
+  }
+
+  // 1. The grid and its normals.
+  detail::DepthGrid<Scalar> make_grid(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam) const {
+    detail::DepthGrid<Scalar> g;
+    g.stride = stride_for(cam);
+    g.width = (cam.width() + g.stride - 1) / g.stride;
+    g.height = (cam.height() + g.stride - 1) / g.stride;
+    const std::size_t n = std::size_t(g.width) * std::size_t(g.height);
+    g.points.assign(n, Vec3::Zero());
+    g.normals.assign(n, Vec3::Zero());
+    g.footprint.assign(n, Scalar(0));
+    for (int j = 0; j < g.height; ++j)
+      for (int i = 0; i < g.width; ++i) {
+        const int u = i * g.stride, v = j * g.stride;
+        if (u < s_.roi_u0 || v < s_.roi_v0 || u > s_.roi_u1 || v > s_.roi_v1) continue;
+        if (input.votes && s_.min_votes > 0 &&
+            int(input.votes[std::size_t(v) * std::size_t(cam.width()) + std::size_t(u)]) < s_.min_votes)
+          continue;
+        const Scalar z = input.depth.depth(u, v);
+        if (!(z > Scalar(0)) || !std::isfinite(z)) continue;
+        const Vec3 p = cam.backproject(Scalar(u), Scalar(v), z);
+        const Vec3 q = cam.backproject(Scalar(u + g.stride), Scalar(v), z);
+        if (!p.allFinite() || !q.allFinite() || !(p.z() > Scalar(0))) continue;
+        g.points[g.index(i, j)] = p;
+        g.footprint[g.index(i, j)] = (q - p).norm();
+      }
+    g.nearest.assign(n, std::numeric_limits<Scalar>::infinity());
+    for (int j = 0; j < g.height; ++j)
+      for (int i = 0; i < g.width; ++i) {
+        Scalar m = std::numeric_limits<Scalar>::infinity();
+        for (int jj = std::max(0, j - 1); jj <= std::min(g.height - 1, j + 1); ++jj)
+          for (int ii = std::max(0, i - 1); ii <= std::min(g.width - 1, i + 1); ++ii) {
+            const Scalar z = g.points[g.index(ii, jj)].z();
+            if (z > Scalar(0)) m = std::min(m, z);
+          }
+        g.nearest[g.index(i, j)] = m;
+      }
+    for (int j = 0; j < g.height; ++j)
+      for (int i = 0; i < g.width; ++i) {
+        const std::size_t k = g.index(i, j);
+        if (!g.valid(k)) continue;
+        const Vec3& c = g.points[k];
+        auto usable = [&](int ii, int jj) {
+          if (ii < 0 || jj < 0 || ii >= g.width || jj >= g.height) return false;
+          const Vec3& p = g.points[g.index(ii, jj)];
+          return p.z() > Scalar(0) && std::abs(p.z() - c.z()) <= s_.edge_jump;
+        };
+        auto tangent = [&](int di, int dj, Vec3& t) {
+          const bool f = usable(i + di, j + dj), b = usable(i - di, j - dj);
+          if (f && b) t = g.points[g.index(i + di, j + dj)] - g.points[g.index(i - di, j - dj)];
+          else if (f) t = g.points[g.index(i + di, j + dj)] - c;
+          else if (b) t = c - g.points[g.index(i - di, j - dj)];
+          else return false;
+          return true;
+        };
+        Vec3 tu, tv;
+        // Tangents over ±normal_offset cells (noise averages out), ±1 near edges.
+        const int o = s_.normal_offset;
+        if (!(tangent(o, 0, tu) || tangent(1, 0, tu)) || !(tangent(0, o, tv) || tangent(0, 1, tv))) continue;
+        Vec3 nrm = tu.cross(tv);
+        const Scalar len = nrm.norm();
+        if (!(len > Scalar(1e-12))) continue;
+        nrm /= len;
+        if (nrm.dot(c) > Scalar(0)) nrm = -nrm;
+        g.normals[k] = nrm;
+      }
+    return g;
+  }
+
+  // 2. Depth-continuous, non-concave segments; split when larger than a part; top-most first.
+  std::vector<std::vector<std::uint32_t>> segment(const detail::DepthGrid<Scalar>& g) const {
+    const std::size_t n = g.points.size();
+    std::vector<std::int32_t> label(n, -1);
+    std::vector<std::vector<std::uint32_t>> segments;
+    std::vector<std::uint32_t> stack;
+    auto linked = [&](std::size_t a, std::size_t b) {
+      if (!g.valid(b)) return false;
+      const Vec3 d = g.points[b] - g.points[a];
+      if (!(std::abs(d.z()) <= s_.edge_jump)) return false;
+      const Vec3 &na = g.normals[a], &nb = g.normals[b];
+      if (na.squaredNorm() == Scalar(0) || nb.squaredNorm() == Scalar(0)) return true;
+      const Scalar len = d.norm();
+      return !(len > Scalar(0)) || (nb - na).dot(d) / len >= -s_.concavity_tolerance;
+    };
+    for (std::size_t seed = 0; seed < n; ++seed) {
+      if (label[seed] >= 0 || !g.valid(seed)) continue;
+      const std::int32_t id = std::int32_t(segments.size());
+      segments.emplace_back();
+      auto& members = segments.back();
+      label[seed] = id;
+      stack.assign(1, std::uint32_t(seed));
+      while (!stack.empty()) {
+        const std::uint32_t p = stack.back();
+        stack.pop_back();
+        members.push_back(p);
+        const int i = int(p % std::uint32_t(g.width)), j = int(p / std::uint32_t(g.width));
+        const int ni[4] = {i - 1, i + 1, i, i}, nj[4] = {j, j, j - 1, j + 1};
+        for (int k = 0; k < 4; ++k) {
+          if (ni[k] < 0 || nj[k] < 0 || ni[k] >= g.width || nj[k] >= g.height) continue;
+          const std::size_t q = g.index(ni[k], nj[k]);
+          if (label[q] >= 0 || !linked(p, q)) continue;
+          label[q] = id;
+          stack.push_back(std::uint32_t(q));
+        }
+      }
+    }
+    struct Candidate {
+      Scalar top;
+      std::vector<std::uint32_t> cells;
+    };
+    std::vector<Candidate> out;
+    const Scalar background_area = s_.max_segment_area_factor * max_area_;
+    for (auto& seg : segments) {
+      Scalar area = 0;
+      for (const auto c : seg) area += g.footprint[c] * g.footprint[c];
+      if (area < s_.min_segment_area || area > background_area) continue;
+      Vec3 centroid = Vec3::Zero();
+      for (const auto c : seg) centroid += g.points[c];
+      centroid /= Scalar(seg.size());
+      Scalar radius = 0;
+      for (const auto c : seg) radius = std::max(radius, (g.points[c] - centroid).norm());
+      if (radius > Scalar(1.2) * max_radius_) {
+        // Larger than a part and flat: floor, wall or rim, not a pile of parts.
+        std::vector<Vec3> pts;
+        pts.reserve(seg.size());
+        for (const auto c : seg) pts.push_back(g.points[c]);
+        Mat3 axes;
+        Vec3 mean, var;
+        detail::principal_axes(pts, axes, mean, &var);
+        if (std::sqrt(std::max(var.z(), Scalar(0))) < s_.planar_rms) continue;
+      }
+      if (radius <= Scalar(1.2) * max_radius_) {
+        Scalar top = std::numeric_limits<Scalar>::max();
+        for (const auto c : seg) top = std::min(top, g.points[c].z());
+        out.push_back({top, std::move(seg)});
+        continue;
+      }
+      // Larger than a part (touching parts not split by a crease): pieces around the top-most points.
+      if (!s_.split_large_segments) continue;
+      std::sort(seg.begin(), seg.end(), [&](std::uint32_t a, std::uint32_t b) { return g.points[a].z() < g.points[b].z(); });
+      std::vector<std::uint8_t> taken(seg.size(), 0);
+      for (int piece = 0; piece < 8; ++piece) {
+        std::size_t s0 = 0;
+        while (s0 < seg.size() && taken[s0]) ++s0;
+        if (s0 == seg.size()) break;
+        const Vec3 top = g.points[seg[s0]];
+        Candidate cand{top.z(), {}};
+        for (std::size_t k = 0; k < seg.size(); ++k)
+          if (!taken[k] && (g.points[seg[k]] - top).norm() <= max_radius_) {
+            taken[k] = 1;
+            cand.cells.push_back(seg[k]);
+          }
+        Scalar a = 0;
+        for (const auto c : cand.cells) a += g.footprint[c] * g.footprint[c];
+        if (a >= s_.min_segment_area) out.push_back(std::move(cand));
+      }
+    }
+    // Local height maxima only: a part on top is surrounded by deeper surface or holes; a strip of a
+    // steep wall (or a part deep under others) has nearer surface along much of its border.
+    std::vector<std::uint8_t> member(n, 0);
+    out.erase(std::remove_if(out.begin(), out.end(),
+                             [&](const Candidate& c) {
+                               for (const auto k : c.cells) member[k] = 1;
+                               std::size_t nearer = 0, border = 0;
+                               for (const auto k : c.cells) {
+                                 const int i = int(k % std::uint32_t(g.width)), j = int(k / std::uint32_t(g.width));
+                                 const int ni[4] = {i - 1, i + 1, i, i}, nj[4] = {j, j, j - 1, j + 1};
+                                 for (int e = 0; e < 4; ++e) {
+                                   if (ni[e] < 0 || nj[e] < 0 || ni[e] >= g.width || nj[e] >= g.height) continue;
+                                   const std::size_t q = g.index(ni[e], nj[e]);
+                                   if (member[q] || !g.valid(q)) continue;
+                                   ++border;
+                                   nearer += g.points[q].z() < g.points[k].z() - s_.edge_jump;
+                                 }
+                               }
+                               for (const auto k : c.cells) member[k] = 0;
+                               return Scalar(nearer) > s_.max_occluded_border * Scalar(border);
+                             }),
+              out.end());
+    std::stable_sort(out.begin(), out.end(), [](const Candidate& a, const Candidate& b) { return a.top < b.top; });
+    if (out.size() > std::size_t(s_.max_candidates)) out.resize(std::size_t(s_.max_candidates));
+    std::vector<std::vector<std::uint32_t>> cells;
+    for (auto& c : out) cells.push_back(std::move(c.cells));
+    return cells;
+  }
+
+  // 3. Fit every model to one candidate; returns the best scored hypothesis (model = -1 if none).
+  detail::Hypothesis<Scalar> fit_candidate(const detail::DepthGrid<Scalar>& g, const Camera& cam,
+                                           const std::vector<std::uint32_t>& cells, int& starts) const {
+    detail::Hypothesis<Scalar> best;
+    std::vector<Vec3> seg;
+    seg.reserve(cells.size());
+    for (const auto c : cells) seg.push_back(g.points[c]);
+    Mat3 E;
+    Vec3 centroid;
+    detail::principal_axes(seg, E, centroid);
+    if (E.col(2).dot(centroid) > Scalar(0)) {  // third axis toward the camera
+      E.col(2) = -E.col(2);
+      E.col(1) = -E.col(1);
+    }
+    PointCloud<Scalar> coarse_src;
+    const std::size_t step = std::max<std::size_t>(1, (seg.size() + std::size_t(s_.max_coarse_source_points) - 1) /
+                                                         std::size_t(s_.max_coarse_source_points));
+    for (std::size_t k = 0; k < seg.size(); k += step) coarse_src.points.push_back(seg[k]);
+
+    for (std::size_t mi = 0; mi < models_.size(); ++mi) {
+      const auto& pm = models_[mi];
+      std::vector<Scalar> fitted_confidence;
+      std::vector<Isometry3<Scalar>> fitted;  // T_camera_object per start (sorted through indices: Eigen alignment)
+      for (const Mat3& R : start_rotations(E, pm)) {
+        ++starts;
+        // The part's centre lies behind its visible surface: step back from the segment's centroid by
+        // the model's extent toward the camera.
+        const Vec3 toward = R.transpose() * E.col(2);
+        Scalar h = 0;
+        for (std::size_t k = 0; k < pm.fine.points.size(); k += 8) h = std::max(h, pm.fine.points[k].dot(toward));
+        Isometry3<Scalar> T_co = Isometry3<Scalar>::Identity();
+        T_co.linear() = R;
+        T_co.translation() = centroid - E.col(2) * (Scalar(0.6) * h) - R * pm.centroid;
+        IcpSettings<Scalar> is;
+        is.max_iterations = s_.coarse_iterations;
+        is.max_correspondence_distance = s_.coarse_distance;
+        is.kernel = RobustKernel::huber;
+        is.kernel_scale = Scalar(0.0015);
+        is.num_threads = 1;
+        is.rotation_epsilon = Scalar(1e-3);
+        is.translation_epsilon = Scalar(1e-5);
+        const auto r = icp(coarse_src, *pm.association, Isometry3<Scalar>(T_co.inverse(Eigen::Isometry)), is);
+        if (r.status == IcpStatus::diverged || r.status == IcpStatus::too_few_correspondences) continue;
+        detail::Hypothesis<Scalar> h2;
+        h2.model = int(mi);
+        h2.T_camera_object = registration_detail::orthonormalized(Isometry3<Scalar>(r.T_target_source.inverse(Eigen::Isometry)));
+        score(g, cam, pm, h2, false);
+        fitted_confidence.push_back(h2.confidence);
+        fitted.push_back(h2.T_camera_object);
+      }
+      std::vector<std::size_t> order(fitted.size());
+      std::iota(order.begin(), order.end(), 0);
+      std::stable_sort(order.begin(), order.end(),
+                       [&](std::size_t a, std::size_t b) { return fitted_confidence[a] > fitted_confidence[b]; });
+      for (std::size_t k = 0; k < order.size() && k < std::size_t(s_.refined_starts); ++k) {
+        detail::Hypothesis<Scalar> h2;
+        h2.model = int(mi);
+        h2.T_camera_object = refine(g, cam, pm, fitted[order[k]]);
+        // The part must explain its own segment (a part-sized piece of a bin rim does not).
+        PointCloud<Scalar> in_model;
+        const Isometry3<Scalar> T_oc = h2.T_camera_object.inverse(Eigen::Isometry);
+        for (const Vec3& p : seg) in_model.points.push_back(T_oc * p);
+        std::vector<std::ptrdiff_t> partners;
+        pm.association->associate(in_model.points, s_.explain_distance, 1, partners);
+        const std::size_t explained = std::size_t(std::count_if(partners.begin(), partners.end(), [](std::ptrdiff_t q) { return q >= 0; }));
+        if (Scalar(explained) < s_.min_segment_explained * Scalar(seg.size())) continue;
+        score(g, cam, pm, h2, true);
+        if (h2.confidence > best.confidence || best.model < 0) best = std::move(h2);
+      }
+    }
+    return best;
+  }
+
+  /// Starts: the model's principal axes onto the segment's in every signed permutation (proper
+  /// rotations), dropping those equal up to the part's symmetry.
+  std::vector<Mat3> start_rotations(const Mat3& E, const detail::PreparedModel<Scalar>& pm) const {
+    std::vector<Mat3> out;
+    const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+    for (const auto& p : perms)
+      for (int signs = 0; signs < 8; ++signs) {
+        Mat3 S = Mat3::Zero();
+        for (int r = 0; r < 3; ++r) S(p[r], r) = (signs >> r) & 1 ? Scalar(-1) : Scalar(1);
+        if (S.determinant() < Scalar(0)) continue;
+        const Mat3 R = E * S * pm.axes.transpose();
+        bool duplicate = false;
+        for (const Mat3& o : out)
+          if (detail::symmetric_rotation_distance(o, R, pm.symmetry) < Scalar(0.2)) {
+            duplicate = true;
+            break;
+          }
+        if (!duplicate) out.push_back(R);
+      }
+    return out;
+  }
+
+  /// Point-to-plane ICP of all grid points near the part onto the fine model samples, two rounds.
+  Isometry3<Scalar> refine(const detail::DepthGrid<Scalar>& g, const Camera& cam, const detail::PreparedModel<Scalar>& pm,
+                           const Isometry3<Scalar>& T_camera_object) const {
+    Isometry3<Scalar> T = T_camera_object;
+    PointCloud<Scalar> crop;
+    for (int round = 0; round < 2; ++round) {
+      const Scalar reach = pm.model.bounding_radius + Scalar(0.002);
+      crop.points.clear();
+      int i0, i1, j0, j1;
+      if (!grid_window(g, cam, T.translation(), reach, i0, i1, j0, j1)) break;
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) {
+          const std::size_t k = g.index(i, j);
+          if (g.valid(k) && (g.points[k] - T.translation()).squaredNorm() <= reach * reach) crop.points.push_back(g.points[k]);
+        }
+      IcpSettings<Scalar> is;
+      is.max_iterations = s_.fine_iterations;
+      is.max_correspondence_distance = round == 0 ? s_.fine_distance : s_.fine_distance / 2;
+      is.kernel = RobustKernel::tukey;
+      is.kernel_scale = is.max_correspondence_distance;
+      is.num_threads = 1;
+      const auto r = icp(crop, *pm.association, Isometry3<Scalar>(T.inverse(Eigen::Isometry)), is);
+      if (r.status == IcpStatus::diverged || r.status == IcpStatus::too_few_correspondences) break;
+      T = registration_detail::orthonormalized(Isometry3<Scalar>(r.T_target_source.inverse(Eigen::Isometry)));
+    }
+    return T;
+  }
+
+  /// Grid cells [i0, i1] × [j0, j1] covering the sphere (centre, radius) in the camera; false if none.
+  static bool grid_window(const detail::DepthGrid<Scalar>& g, const Camera& cam, const Vec3& centre, Scalar radius, int& i0,
+                          int& i1, int& j0, int& j1) {
+    if (!(centre.z() > radius)) return false;
+    // Pixel radius from a point one radius off the centre, across the line of sight.
+    const Vec3 a = cam.backproject(Scalar(0), Scalar(0), centre.z() - radius);
+    const Vec3 b = cam.backproject(Scalar(1), Scalar(0), centre.z() - radius);
+    const Scalar px_per_m = Scalar(1) / std::max((b - a).norm(), Scalar(1e-9));
+    const Vec3 ray = centre / centre.z();
+    const Vec3 near = ray * (centre.z() - radius);
+    const auto pc = cam.project(near);
+    if (!pc) return full_window(g, i0, i1, j0, j1);  // centre off the image: scan everything (rare)
+    const Scalar u = pc->x(), v = pc->y();
+    const Scalar r = radius * px_per_m * Scalar(1.2) + Scalar(2);
+    i0 = std::max(0, int(std::floor((u - r) / Scalar(g.stride))));
+    i1 = std::min(g.width - 1, int(std::ceil((u + r) / Scalar(g.stride))));
+    j0 = std::max(0, int(std::floor((v - r) / Scalar(g.stride))));
+    j1 = std::min(g.height - 1, int(std::ceil((v + r) / Scalar(g.stride))));
+    return i0 <= i1 && j0 <= j1;
+  }
+  static bool full_window(const detail::DepthGrid<Scalar>& g, int& i0, int& i1, int& j0, int& j1) {
+    i0 = 0;
+    j0 = 0;
+    i1 = g.width - 1;
+    j1 = g.height - 1;
+    return g.width > 0 && g.height > 0;
+  }
+
+  // 4. The z-buffer score.
+  void score(const detail::DepthGrid<Scalar>& g, const Camera& cam, const detail::PreparedModel<Scalar>& pm,
+             detail::Hypothesis<Scalar>& h, bool keep_cells = false) const {
+    h.visible = h.supported = h.empty = 0;
+    h.confidence = 0;
+    h.supported_cells.clear();
+    const Mat3 R = h.T_camera_object.linear();
+    const Vec3 t = h.T_camera_object.translation();
+    struct Splat {
+      std::uint32_t cell;
+      Scalar z;
+    };
+    std::vector<Splat> splats;
+    splats.reserve(pm.fine.points.size() / 2);
+    for (std::size_t k = 0; k < pm.fine.points.size(); ++k) {
+      const Vec3 p = R * pm.fine.points[k] + t;
+      const Vec3 nrm = R * pm.fine.normals[k];
+      const Scalar pn = p.norm();
+      if (!(pn > Scalar(0)) || !(-nrm.dot(p) > s_.grazing_cosine * pn)) continue;  // back-facing or grazing
+      const auto px = cam.project(p);
+      if (!px) continue;
+      const int i = int(std::lround(px->x() / Scalar(g.stride))), j = int(std::lround(px->y() / Scalar(g.stride)));
+      if (i < 0 || j < 0 || i >= g.width || j >= g.height) continue;
+      splats.push_back({std::uint32_t(g.index(i, j)), p.z()});
+    }
+    if (splats.empty()) return;
+    std::sort(splats.begin(), splats.end(), [](const Splat& a, const Splat& b) { return a.cell != b.cell ? a.cell < b.cell : a.z < b.z; });
+    for (std::size_t k = 0; k < splats.size(); ++k) {
+      if (k > 0 && splats[k].cell == splats[k - 1].cell) continue;  // z-buffer: the nearest sample of the cell
+      ++h.visible;
+      const std::uint32_t c = splats[k].cell;
+      if (!g.valid(c)) continue;  // no measurement: neither support nor contradiction
+      const Scalar dz = g.points[c].z() - splats[k].z;
+      if (std::abs(dz) <= s_.support_distance) {
+        ++h.supported;
+        if (keep_cells) h.supported_cells.push_back(c);
+      } else if (g.nearest[c] - splats[k].z > s_.support_distance) {
+        ++h.empty;  // the sensor sees through where the model would be (all neighbours too: not a silhouette)
+      }
+    }
+    const Scalar conf = Scalar(100) * (Scalar(h.supported) - Scalar(h.empty)) / Scalar(h.visible);
+    h.confidence = std::clamp(conf, Scalar(0), Scalar(100));
+  }
+
+  // 6. The grasp: along the line of sight, gripper in measured free space.
+  void choose_grasp(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
+                    const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_camera_object,
+                    Isometry3<Scalar>& T_camera_grasp, RecognitionDetail<Scalar>& d) const {
+    const auto& grasps = pm.model.grasps;
+    int best = -1, best_free = -1;
+    Scalar best_angle = Scalar(10), best_free_angle = Scalar(10);
+    for (std::size_t k = 0; k < grasps.size(); ++k) {
+      const Isometry3<Scalar> T = T_camera_object * grasps[k].T_part_grasp;
+      const Vec3 sight = T.translation().normalized();
+      const Scalar angle = std::acos(std::clamp(T.linear().col(2).dot(sight), Scalar(-1), Scalar(1)));
+      if (angle < best_angle) {
+        best_angle = angle;
+        best = int(k);
+      }
+      if (angle > s_.max_approach_angle || angle >= best_free_angle) continue;
+      if (gripper_collides(input, cam, T, pm.model.gripper, grasps[k].opening)) continue;
+      best_free_angle = angle;
+      best_free = int(k);
+    }
+    d.grasp_reachable = best_free >= 0;
+    d.grasp_index = best_free >= 0 ? best_free : best;
+    T_camera_grasp = d.grasp_index >= 0 ? Isometry3<Scalar>(T_camera_object * grasps[std::size_t(d.grasp_index)].T_part_grasp)
+                                        : T_camera_object;
+  }
+
+  bool gripper_collides(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
+                        const Isometry3<Scalar>& T_camera_grasp, cycle::GripperKind kind, Scalar opening) const {
+    for (const Vec3& q : detail::gripper_samples(s_.gripper, kind, opening, Scalar(0.002))) {
+      const Vec3 p = T_camera_grasp * q;
+      const auto px = cam.project(p);
+      if (!px) continue;
+      const Scalar z = input.depth.depth(int(std::lround(px->x())), int(std::lround(px->y())));
+      if (z > Scalar(0) && z < p.z() - s_.collision_margin) return true;  // behind a measured surface
+    }
+    return false;
+  }
+
+  ReferenceEstimatorSettings<Scalar> s_;
+  std::vector<detail::PreparedModel<Scalar>> models_;
+  Scalar max_area_ = 0, max_radius_ = 0;
+};
+
+}  // namespace binpick::sim
