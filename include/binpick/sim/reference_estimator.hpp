@@ -10,16 +10,18 @@
 /// header does not include scene.hpp (tests/estimator guards both).
 ///
 /// Per fused image:
-///  1. grid: every `stride`-th pixel backprojected, normals from grid neighbours;
+///  1. grid: every `stride`-th pixel inside the region of interest backprojected, normals from grid
+///     neighbours;
 ///  2. segments: 4-connected cells whose depth is continuous (step ≤ edge_jump) and whose surface is
 ///     not concave between them (touching parts meet in concave creases); segments larger than a part
-///     are split around their top-most points, segments much larger than any part (floor, walls) and
-///     small ones are dropped; candidates are taken top-most first (smallest depth);
+///     are background (optionally split around their top-most points), as are small ones and those
+///     with nearer surface along much of their border (not a local height maximum); candidates are
+///     taken top-most first (smallest depth);
 ///  3. fit: for each candidate and model, the model's principal axes are aligned to the segment's in
 ///     every distinct way (24 signed axis permutations, fewer after removing the part's symmetries),
-///     each start refined by point-to-plane ICP of the segment on the model's coarse surface samples
-///     (registration/icp.hpp with a kd-tree association); the best starts are refined on the fine
-///     samples with all depth points around the part;
+///     each start refined by point-to-plane ICP of a subset of the segment on the model's surface
+///     samples (registration/icp.hpp with a voxel nearest-sample association); the best starts are
+///     refined with all depth points around the part and must explain most of their segment;
 ///  4. score: the fitted model's sampled surface is z-buffered into the grid; a visible cell is
 ///     supported when the measured depth lies within δ, empty when the sensor sees through it (the
 ///     measured depth lies beyond the model by more than δ): confidence = 100 · (supported − empty) /
