@@ -75,7 +75,7 @@ TEST(FusionRegistration, MotionCorruptedPosesAreCorrectedBeforeVoting) {
     // Sliding over the floor is observable only through the few box walls the camera sees, so the
     // pose is good to about a millimetre here; on a pile of parts it is far better constrained.
     EXPECT_LT(e.translation().norm(), 2e-3) << i << " " << to_string(rep.icp_status) << " it " << rep.icp_iterations;
-    EXPECT_LT(rotation_angle(e), 0.2 * kDeg) << i;
+    EXPECT_LT(rotation_angle(e), 0.3 * kDeg) << i;
     EXPECT_GT(rep.correction_translation, 0.005);
     EXPECT_EQ(r_off.views[i].pose, ViewPose::kinematic);
   }

@@ -70,7 +70,9 @@ struct FusionSettings {
   /// a full-resolution reference only costs time. 1 = full resolution (also used for camera models
   /// other than pinhole and Brown–Conrady).
   int reference_stride = 2;
-  OrganizedNormalSettings<Scalar> normals{};    ///< normals of view 1 and of the subsampled sources
+  /// Normals of view 1 and of the subsampled sources: tangents over 3 (sampled) pixels and a
+  /// tolerant crease test, because single-shot depth on metal is noisy at the pixel scale.
+  OrganizedNormalSettings<Scalar> normals = default_normals();
   /// Bounds on the ICP correction relative to the kinematic pose; a larger correction is not trusted
   /// and the kinematic pose is kept. Defaults: 3 cm and 5° (motion error is a few mm and about 1°).
   Scalar max_correction_translation = Scalar(0.03);  ///< [m]
@@ -78,10 +80,22 @@ struct FusionSettings {
 
   Scalar effective_delta() const { return delta > Scalar(0) ? delta : Scalar(2) * sensor_accuracy; }
 
+  static OrganizedNormalSettings<Scalar> default_normals() {
+    OrganizedNormalSettings<Scalar> n;
+    n.pixel_offset = 3;
+    n.max_crease_angle = Scalar(0.7);
+    return n;
+  }
+
   static IcpSettings<Scalar> default_icp() {
     IcpSettings<Scalar> s;
+    s.max_normal_angle = Scalar(0.5);
     s.stride = 4;
-    s.max_iterations = 20;
+    s.max_iterations = 15;
+    // Converged when an update moves less than 50 um / 0.01 deg: far below the voting threshold
+    // (2 mm), and above the jitter that sensor noise leaves in the last updates.
+    s.translation_epsilon = Scalar(5e-5);
+    s.rotation_epsilon = Scalar(1.7e-4);
     s.max_correspondence_distance = Scalar(0.02);
     s.kernel = RobustKernel::tukey;
     s.kernel_scale = Scalar(0.01);
@@ -262,14 +276,16 @@ class Fuser {
     require(std::isfinite(settings.max_correction_rotation) && settings.max_correction_rotation > Scalar(0),
             "max_correction_rotation", "must be finite and > 0");
     require(settings.reference_stride >= 1, "reference_stride", "must be >= 1");
-    const auto reference = make_reference(views[0], settings);
+    FusionSettings<Scalar> st = settings;
+    st.normals.num_threads = threads;  // never more threads than the caller asked for
+    const auto reference = make_reference(views[0], st);
     const Isometry3<Scalar> T_ref_base = T_base_views[0].inverse(Eigen::Isometry);
     IcpSettings<Scalar> icp = settings.icp;
     icp.num_threads = threads;
     for (std::size_t i = 1; i < views.size(); ++i) {
       FusionViewReport<Scalar>& rep = result.views[i];
       const Isometry3<Scalar> T_ref_view_prior = T_ref_base * T_base_views[i];
-      const IcpResult<Scalar> r = align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp, settings.normals);
+      const IcpResult<Scalar> r = align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp, st.normals);
       const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
       rep.icp_status = r.status;
       rep.icp_rmse = r.rmse;
