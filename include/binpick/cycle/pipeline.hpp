@@ -36,8 +36,9 @@
 /// with ICP, estimation and planning are measured (steady clock) and added to the Clock time at which
 /// processing started, so a simulated cell accounts for them as a real one would.
 ///
-/// Failures: an exception from a driver, a pose read that is not a rigid finite pose, or fewer frames
-/// read back than triggered end the cycle with a status and a message. The pipeline then drains the
+/// Failures: an exception from a driver, a pose read that is not a rigid finite pose, a pose read or a
+/// frame stamped more than `max_stamp_offset` from its trigger, or fewer frames read back than
+/// triggered end the cycle with a status and a message. The pipeline then drains the
 /// sensor memory, waits for the robot to stop, returns it to the home point and falls back to the
 /// predefined path; the part in hand (if any) is still held and is dropped by the next cycle.
 /// The worker thread is always joined before run_cycle returns. The library never prints.
@@ -114,8 +115,19 @@ struct PipelineSettings {
   TaktSettings takt;                       ///< Table I constants; hardware durations of the cell
   bool model_hardware_time = true;         ///< add transfer and stereo depth time from `takt` (simulated sensors)
   FusionSettings<Scalar> fusion = default_fusion();  ///< sensor_accuracy is replaced by the sensor's
+  /// Region of interest: fused depth whose point (base frame) lies outside the bin's inside shrunk by
+  /// `crop_margin` from the walls, or above the wall top by more than `crop_height`, is removed before
+  /// estimation (walls and rims look like parts to a model fitter; the reference view moves every cycle,
+  /// so the region is a volume in the base frame, not a fixed pixel rectangle).
+  bool crop_to_bin = true;
+  Scalar crop_margin = Scalar(0.015);      ///< [m]
+  Scalar crop_height = Scalar(0.05);       ///< [m] above the wall top
   std::uint64_t seed = 1;                  ///< random target points of random_path
   bool keep_images = false;                ///< keep the fused depth and votes in the CycleResult
+  /// A pose read or a frame stamped further than this from its view's trigger is not matched to the
+  /// view (a stale controller sample, a frame of another trigger): the cycle ends with robot_failure
+  /// or sensor_failure instead of fusing a view with a wrong pose [s].
+  double max_stamp_offset = 0.050;
 
   /// Camera 10 cm behind the tool point along the approach and 5 cm aside, looking along it.
   static Isometry3<Scalar> default_hand_eye() {
@@ -285,6 +297,7 @@ class PickingPipeline {
     require(std::isfinite(s.working_distance) && s.working_distance > 0, "working_distance", "must be finite and > 0");
     require(std::isfinite(s.search_beta_factor) && s.search_beta_factor >= 1, "search_beta_factor", "must be >= 1");
     require(std::isfinite(s.stop_time) && s.stop_time >= 0, "stop_time", "must be finite and >= 0");
+    require(std::isfinite(s.max_stamp_offset) && s.max_stamp_offset > 0, "max_stamp_offset", "must be finite and > 0");
     require(std::isfinite(s.lift_clearance) && s.lift_clearance >= 0, "lift_clearance", "must be finite and >= 0");
     require(std::isfinite(s.approach_distance) && s.approach_distance >= 0, "approach_distance", "must be finite and >= 0");
     require(s.bin_length > 0 && s.bin_width > 0 && s.bin_height > 0, "bin_length", "bin sizes must be > 0");
@@ -456,6 +469,10 @@ class PickingPipeline {
     if (!detail::is_rigid_finite(read.T_base_flange))
       throw CycleFailure(CycleStatus::robot_failure, "robot: pose read of view " + std::to_string(cap.trigger_times.size() + 1) +
                                                          " is not a rigid finite pose");
+    if (!(std::abs(read.time - t) <= s_.max_stamp_offset))
+      throw CycleFailure(CycleStatus::robot_failure, "robot: pose read of view " + std::to_string(cap.trigger_times.size() + 1) +
+                                                         " is stamped " + std::to_string(int(std::round((read.time - t) * 1e3))) +
+                                                         " ms from its trigger (stale sample)");
     const std::size_t k = cap.trigger_times.size() + 1;
     tl.add("exposure " + std::to_string(k), Lane::capture, t, t + s_.takt.exposure);
     tl.add("kinematics " + std::to_string(k), Lane::capture, read.time, read.time + s_.takt.kinematics);
@@ -489,12 +506,21 @@ class PickingPipeline {
                     (frames.size() < triggered ? " (frame " + std::to_string(frames.size() + 1) + " never arrived)" : "");
         return out;
       }
+      for (std::size_t i = 0; i < frames.size(); ++i)
+        if (!(std::abs(frames[i].trigger_time - cap.trigger_times[i]) <= s_.max_stamp_offset)) {
+          out.status = CycleStatus::sensor_failure;
+          out.error = "sensor: frame " + std::to_string(i + 1) + " is stamped " +
+                      std::to_string(int(std::round((frames[i].trigger_time - cap.trigger_times[i]) * 1e3))) +
+                      " ms from its trigger (a frame of another trigger)";
+          return out;
+        }
       t0 = clk::now();
       std::vector<DepthImageView<Scalar>> views;
       for (const auto& f : frames) views.push_back(f.depth.view());
       FusionSettings<Scalar> fs = s_.fusion;
       fs.sensor_accuracy = sensor_->accuracy();
       FusionResult<Scalar> fused = fuser_.fuse(views, cap.T_base_cameras_read, fs);
+      if (s_.crop_to_bin) crop(fused);
       out.fusion_s = seconds_since(t0);
       out.views = int(views.size());
 
@@ -524,6 +550,25 @@ class PickingPipeline {
       out.error = std::string("processing: ") + e.what();
     }
     return out;
+  }
+
+  /// The region of interest (settings.crop_to_bin), counted in the fusion's time.
+  void crop(FusionResult<Scalar>& fused) const {
+    const Camera& cam = sensor_->camera();
+    const Pose& T = fused.T_base_target;
+    const Scalar hx = s_.bin_length / 2 - s_.crop_margin, hy = s_.bin_width / 2 - s_.crop_margin;
+    const Scalar z_top = s_.bin_center.z() + s_.bin_height + s_.crop_height;
+    const int w = fused.depth.width(), h = fused.depth.height();
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        Scalar& z = fused.depth.data()[std::size_t(v) * std::size_t(w) + std::size_t(u)];
+        if (!(z > Scalar(0)) || !std::isfinite(z)) continue;
+        const Vec3 p = T * Vec3(cam.backproject(Scalar(u), Scalar(v), z)) - s_.bin_center;
+        if (std::abs(p.x()) > hx || std::abs(p.y()) > hy || p.z() + s_.bin_center.z() > z_top) {
+          z = Scalar(0);
+          if (!fused.votes.votes.empty()) fused.votes.votes[std::size_t(v) * std::size_t(w) + std::size_t(u)] = 0;
+        }
+      }
   }
 
   /// Choose the object to grasp, and plan the grasp and the next sensing path (Eq. 1, Alg. 2).
