@@ -1,0 +1,307 @@
+// The picking cycle: Table I / Eq. 2, the timeline, and the pipeline of Fig. 2 in the simulated cell —
+// a small pile emptied, processing overlapping the drop, driver failures ending a cycle cleanly, and
+// the strategies compared on a fixed seed.
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <stdexcept>
+
+#include "binpick/cycle.hpp"
+#include "binpick/sim.hpp"
+#include "sim_cell.hpp"
+#include "test_support.hpp"
+
+using namespace binpick;
+using S = float;
+using Camera = PinholeCamera<S>;
+
+// ---------------------------------------------------------------------------------------------------
+// Table I / Eq. 2
+
+TEST(Takt, PaperMaximumIs1682ms) {
+  EXPECT_NEAR(cycle::sensing_scheme_total(4, 0.030), 1.682, 1e-9);
+  const auto t = cycle::sensing_scheme_time(4, 0.030);
+  EXPECT_NEAR(t.images, 0.372 + 0.090, 1e-12);  // 3n + 90n + t(n-1)
+  EXPECT_NEAR(t.kinematics, 0.080, 1e-12);
+  EXPECT_NEAR(t.depth_3d, 0.920, 1e-12);
+}
+
+RC_GTEST_PROP(Takt, Eq2HoldsForAnyViewsAndInterval, ()) {
+  const int n = *rc::gen::inRange(1, 11);
+  const double t = *rc::gen::inRange(0, 81) * 1e-3;
+  RC_ASSERT(std::abs(cycle::sensing_scheme_total(n, t) - (0.343 * n + t * (n - 1) + 0.220)) < 1e-9);
+}
+
+TEST(Takt, EveryConstantIsASetting) {
+  cycle::TaktSettings s;
+  s.stereo_depth = 0;
+  s.fusion_per_view = 0;
+  EXPECT_NEAR(cycle::sensing_scheme_total(4, 0.030, s), 1.682 - 4 * 0.230, 1e-9);
+  EXPECT_THROW(cycle::sensing_scheme_total(0, 0.03), std::invalid_argument);
+  EXPECT_THROW(cycle::sensing_scheme_total(2, -1), std::invalid_argument);
+  s.estimation = -1;
+  EXPECT_THROW(cycle::sensing_scheme_total(2, 0.03, s), std::invalid_argument);
+}
+
+TEST(Timeline, TotalsAndOverlap) {
+  cycle::Timeline tl;
+  tl.add("drop N->C", cycle::Lane::robot, 1.0, 2.0);
+  tl.add("fusion+ICP", cycle::Lane::processing, 1.5, 1.7, true);
+  tl.add("estimation", cycle::Lane::processing, 1.7, 2.5, true);
+  EXPECT_NEAR(tl.total(cycle::Lane::processing), 1.0, 1e-12);
+  EXPECT_NEAR(tl.overlap("drop N->C", cycle::Lane::processing), 0.5, 1e-12);
+  EXPECT_NEAR(tl.begin(), 1.0, 0);
+  EXPECT_NEAR(tl.end(), 2.5, 0);
+  tl.add("backwards", cycle::Lane::robot, 3.0, 2.0);
+  EXPECT_EQ(tl.find("backwards")->duration(), 0.0);
+  EXPECT_THROW(tl.add("nan", cycle::Lane::robot, std::nan(""), 1.0), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The pipeline in the simulated cell, with drivers that can fail on demand.
+
+namespace {
+
+// Forwards to the fake sensor; can lose the last frame of a read or throw on a trigger. Remembers the
+// true camera pose of the first frame after a read (for the oracle estimator of the mechanics tests).
+struct TestSensor {
+  using Scalar = S;
+  using Camera = ::Camera;
+  sim::FakeSensor<S>* inner;
+  const sim::FakeRobot<S>* robot;
+  Isometry3<S> T_flange_camera;
+  bool lose_frame = false, throw_on_trigger = false;
+  bool first_pending = true;
+  Isometry3<S> T_base_view1 = Isometry3<S>::Identity();
+  const Camera& camera() const { return inner->camera(); }
+  S accuracy() const { return inner->accuracy(); }
+  double trigger() {
+    if (throw_on_trigger) throw std::runtime_error("no trigger acknowledge");
+    const double t = inner->trigger();
+    if (first_pending) T_base_view1 = robot->true_flange_pose(t) * T_flange_camera, first_pending = false;
+    return t;
+  }
+  std::size_t frames_in_memory() const { return inner->frames_in_memory(); }
+  std::vector<cycle::DepthFrame<S>> read_frames() {
+    auto f = inner->read_frames();
+    first_pending = true;
+    if (lose_frame && !f.empty()) f.pop_back();
+    return f;
+  }
+};
+static_assert(cycle::is_sensor_driver<TestSensor>::value, "TestSensor models SensorDriver");
+
+// Forwards to the fake robot; the n-th pose read (counting from 1) can throw or return garbage.
+struct TestRobot {
+  using Scalar = S;
+  sim::FakeRobot<S>* inner;
+  int fail_read = 0, reads = 0;
+  bool garbage = false;
+  double move_along(const std::vector<Isometry3<S>>& p, S v) { return inner->move_along(p, v); }
+  bool is_moving() const { return inner->is_moving(); }
+  cycle::StampedPose<S> read_flange_pose() {
+    ++reads;
+    if (fail_read > 0 && reads == fail_read) {
+      if (!garbage) throw std::runtime_error("controller timeout");
+      cycle::StampedPose<S> p;
+      p.T_base_flange.matrix().setConstant(std::numeric_limits<S>::quiet_NaN());
+      return p;
+    }
+    return inner->read_flange_pose();
+  }
+};
+static_assert(cycle::is_robot_driver<TestRobot>::value, "TestRobot models RobotDriver");
+
+// TEST-ONLY STAND-IN (oracle): returns the true parts in view 1's frame, so the mechanics of the
+// cycle (emptying, timing, failures) are tested independently of recognition quality. The picking
+// test (binpick_sim) and the strategy comparison below use the reference estimator.
+struct OracleEstimator {
+  using Scalar = S;
+  using Camera = ::Camera;
+  const sim::Scene<S>* scene;
+  const TestSensor* sensor;
+  cycle::EstimationResult<S> estimate(const cycle::EstimatorInput<S, Camera>& in) {
+    cycle::EstimationResult<S> r;
+    if (!in.camera) {
+      r.status = cycle::EstimationStatus::invalid_input;
+      return r;
+    }
+    const Isometry3<S> T_cam_base = sensor->T_base_view1.inverse(Eigen::Isometry);
+    for (const auto& p : scene->parts()) {
+      const auto& m = scene->model(p.type);
+      for (const auto& g : m.grasps) {
+        const Isometry3<S> G = p.T_base_part * g.T_part_grasp;
+        if (G.linear().col(2).z() > S(-0.7)) continue;  // approach from above only
+        cycle::RecognizedObject<S> o;
+        o.part_type = int(p.type);
+        o.T_camera_object = T_cam_base * p.T_base_part;
+        o.T_camera_grasp = T_cam_base * G;
+        o.confidence_percent = S(50) + S(1000) * p.T_base_part.translation().z();  // top parts first
+        r.objects.push_back(o);
+        break;
+      }
+    }
+    std::sort(r.objects.begin(), r.objects.end(), [](const auto& a, const auto& b) { return a.confidence_percent > b.confidence_percent; });
+    r.status = r.objects.empty() ? cycle::EstimationStatus::no_objects : cycle::EstimationStatus::ok;
+    return r;
+  }
+};
+
+struct TestCell {
+  using Pipeline = cycle::PickingPipeline<TestRobot, TestSensor, OracleEstimator, sim::SimClock, simcell::SimGripper<S>>;
+  sim::Scene<S> scene;
+  sim::SimClock clock;
+  std::unique_ptr<sim::FakeRobot<S>> fake_robot;
+  std::unique_ptr<sim::FakeSensor<S>> fake_sensor;
+  TestRobot robot;
+  TestSensor sensor;
+  OracleEstimator estimator;
+  std::unique_ptr<simcell::SimGripper<S>> gripper;
+  std::unique_ptr<Pipeline> pipeline;
+
+  TestCell(int parts, cycle::Strategy strategy, std::uint64_t seed = 5) {
+    sim::SceneSettings<S> ss;
+    ss.part_type = sim::PartType::circle_nut;
+    ss.num_parts = parts;
+    scene = sim::Scene<S>::generate(ss, seed);
+    cycle::PipelineSettings<S> ps;
+    ps.strategy = strategy;
+    fake_robot = std::make_unique<sim::FakeRobot<S>>(clock, ps.T_base_drop);
+    sim::StereoSensorSettings<S> st;
+    st.width = 640;
+    st.height = 512;
+    st.errors.enabled = false;  // mechanics only: the exact depth renders 3x faster
+    fake_sensor = std::make_unique<sim::FakeSensor<S>>(scene, *fake_robot, clock, ps.T_flange_camera, st);
+    robot.inner = fake_robot.get();
+    sensor.inner = fake_sensor.get();
+    sensor.robot = fake_robot.get();
+    sensor.T_flange_camera = ps.T_flange_camera;
+    estimator.scene = &scene;
+    estimator.sensor = &sensor;
+    gripper = std::make_unique<simcell::SimGripper<S>>(scene, sim::PartType::circle_nut);
+    pipeline = std::make_unique<Pipeline>(robot, sensor, estimator, clock, *gripper, ps);
+  }
+};
+
+}  // namespace
+
+TEST(Pipeline, EmptiesASmallPileWithProcessingDuringTheDrop) {
+  TestCell cell(3, cycle::Strategy::ours);
+  int cycles = 0, placed = 0;
+  while (!cell.scene.parts().empty() && cycles < 8) {
+    const auto r = cell.pipeline->run_cycle();
+    ++cycles;
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_EQ(r.views, 4);
+    if (!r.placed) continue;
+    ++placed;
+    // Fig. 2: processing runs while the robot drops the part, and starts after the last view.
+    const auto* drop = r.timeline.find("drop N->C");
+    const auto* fusion = r.timeline.find("fusion+ICP");
+    const auto* last_exposure = r.timeline.find("exposure 4");
+    ASSERT_TRUE(drop && fusion && last_exposure);
+    EXPECT_GT(r.timeline.overlap("drop N->C", cycle::Lane::processing), 0.5 * drop->duration());
+    EXPECT_GE(r.timeline.find("transfer")->start, last_exposure->end - 1e-9);
+    // The robot never moves while it waits, and a wait only follows an unfinished processing.
+    if (const auto* wait = r.timeline.find("wait for processing")) {
+      EXPECT_NEAR(wait->end, r.timeline.find("planning")->end, 1e-9);
+    }
+    EXPECT_NEAR(r.takt.sensing_in_takt(), r.takt.detour + r.takt.robot_wait, 1e-12);
+    EXPECT_GE(r.takt.detour, 0.0);
+  }
+  EXPECT_TRUE(cell.scene.parts().empty()) << "pile not emptied in " << cycles << " cycles";
+  EXPECT_GE(placed, 2);
+}
+
+TEST(Pipeline, StopAndGoSpendsMoreTimeInTakt) {
+  double ours = 0, c = 0;
+  for (auto strategy : {cycle::Strategy::ours, cycle::Strategy::stop_and_go}) {
+    TestCell cell(2, strategy);
+    double sum = 0;
+    int placed = 0;
+    for (int k = 0; k < 3 && !cell.scene.parts().empty(); ++k) {
+      const auto r = cell.pipeline->run_cycle();
+      ASSERT_TRUE(r.error.empty()) << r.error;
+      if (r.placed) sum += r.takt.sensing_in_takt(), ++placed;
+    }
+    ASSERT_GT(placed, 0);
+    (strategy == cycle::Strategy::ours ? ours : c) = sum / placed;
+  }
+  EXPECT_GT(c, ours + 0.5) << "stop-and-go " << c << " s vs ours " << ours << " s";
+}
+
+TEST(Pipeline, LostFrameEndsTheCycleCleanly) {
+  TestCell cell(3, cycle::Strategy::ours);
+  ASSERT_EQ(cell.pipeline->run_cycle().status, cycle::CycleStatus::picked);
+  cell.sensor.lose_frame = true;
+  const auto r = cell.pipeline->run_cycle();
+  EXPECT_EQ(r.status, cycle::CycleStatus::sensor_failure);
+  EXPECT_NE(r.error.find("never arrived"), std::string::npos) << r.error;
+  EXPECT_EQ(cell.sensor.frames_in_memory(), 0u);
+  EXPECT_FALSE(cell.fake_robot->is_moving());
+  // The cell goes on: the next cycle runs the predefined path and succeeds.
+  cell.sensor.lose_frame = false;
+  const auto next = cell.pipeline->run_cycle();
+  EXPECT_TRUE(next.error.empty()) << next.error;
+  EXPECT_EQ(next.path_source, cycle::PathSource::predefined);
+}
+
+TEST(Pipeline, FailedPoseReadAndTriggerEndTheCycleCleanly) {
+  for (int mode = 0; mode < 3; ++mode) {
+    TestCell cell(2, cycle::Strategy::ours);
+    if (mode == 0) cell.robot.fail_read = 2;                          // a late read throws
+    if (mode == 1) cell.robot.fail_read = 3, cell.robot.garbage = true;  // a read returns NaN
+    if (mode == 2) cell.sensor.throw_on_trigger = true;
+    const auto r = cell.pipeline->run_cycle();
+    EXPECT_EQ(r.status, mode == 2 ? cycle::CycleStatus::sensor_failure : cycle::CycleStatus::robot_failure) << mode;
+    EXPECT_FALSE(r.error.empty());
+    EXPECT_EQ(cell.sensor.frames_in_memory(), 0u);
+    EXPECT_FALSE(cell.fake_robot->is_moving());
+    EXPECT_TRUE(cell.fake_robot->read_flange_pose().T_base_flange.isApprox(cell.pipeline->T_base_home(), 1e-5f));
+    cell.robot.fail_read = 0;
+    cell.sensor.throw_on_trigger = false;
+    EXPECT_TRUE(cell.pipeline->run_cycle().error.empty());
+  }
+}
+
+TEST(Pipeline, RejectsBadSettings) {
+  TestCell cell(1, cycle::Strategy::ours);
+  cycle::PipelineSettings<S> ps;
+  ps.interval = 0;
+  EXPECT_THROW(TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps), std::invalid_argument);
+  ps = {};
+  ps.sensing_speed_percent = 120;
+  EXPECT_THROW(TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The strategies with the reference estimator on a fixed seed.
+
+// Pencil couplers, 6 parts (binpick_sim --types pencil_coupler --parts 6 --seed 11): multi-view sensing
+// picks more than one view (paper Fig. 11); the random path (B) must not do better than active vision.
+// Measured with the reference estimator: ours 4, A 1, B 4 of 6 — this estimator does not yet separate
+// B from ours on a single pile, so only "not better" is asserted for B.
+TEST(Strategies, OursBeatsSingleViewAndIsNotBeatenByRandomPath) {
+  auto run = [](cycle::Strategy s) {
+    simcell::CellOptions o;
+    o.part = sim::PartType::pencil_coupler;
+    o.parts = 6;
+    o.seed = 11ULL * 1000003ULL + 3ULL * 7919ULL;
+    cycle::PipelineSettings<S> ps;
+    ps.strategy = s;
+    ps.seed = o.seed;
+    simcell::Cell cell(o, ps);
+    int picked = 0, fails = 0;
+    for (int k = 0; k < 10 && cell.remaining() > 0 && fails < 3; ++k) {
+      const auto r = cell.pipeline->run_cycle();
+      EXPECT_TRUE(r.error.empty()) << r.error;
+      const bool ok = r.status == cycle::CycleStatus::picked;
+      picked += ok;
+      fails = ok ? 0 : fails + 1;
+    }
+    return picked;
+  };
+  const int ours = run(cycle::Strategy::ours);
+  EXPECT_GT(ours, run(cycle::Strategy::single_view));
+  EXPECT_GE(ours, run(cycle::Strategy::random_path));
+}

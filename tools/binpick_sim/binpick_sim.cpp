@@ -1,0 +1,402 @@
+// binpick_sim: the picking test of the paper (§IV.D.4, Table III) in the simulated cell. For each part
+// type, R runs of P piled parts are picked without intervention until the bin is empty or K cycles in a
+// row fail; the four strategies run on the same piles: ours (multi-view + active vision, sensing in
+// parallel with the place action), A (single view + active vision), B (random sensing path +
+// multi-view) and C (stop-and-go multi-view, Robot Fusion [12]). Prints a Table-III-like table per
+// strategy, the mean sensing time in takt and the processing time per cycle; --csv writes one row per
+// cycle, --json prints a summary for scripts, --out writes pictures of one cycle of ours.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <sys/stat.h>
+
+#include "io.hpp"
+#include "pictures.hpp"
+#include "sim_cell.hpp"
+
+using namespace binpick;
+using binpick::tools::json_number;
+using binpick::tools::json_string;
+
+namespace {
+
+struct Params {  // Table III "Sensing Parameters" of a part type
+  int n = 4;
+  double t_ms = 30;
+  double v_percent = 80;
+};
+
+// Table III of the paper, the defaults until binpick_calibrate has written its own.
+Params table3(sim::PartType p) {
+  switch (p) {
+    case sim::PartType::small_screw: return {4, 30, 70};
+    case sim::PartType::lan_connector: return {4, 30, 80};
+    case sim::PartType::mirror_nut: return {3, 60, 60};
+    case sim::PartType::pencil_coupler: return {4, 30, 80};
+    case sim::PartType::circle_nut: return {4, 30, 80};
+  }
+  return {};
+}
+
+struct Options {
+  std::vector<sim::PartType> types;
+  int runs = 1, parts = 10, max_failures = 5, jobs = 2;
+  std::vector<cycle::Strategy> strategies{cycle::Strategy::ours, cycle::Strategy::single_view, cycle::Strategy::random_path,
+                                          cycle::Strategy::stop_and_go};
+  std::uint64_t seed = 1;
+  bool json = false;
+  std::string csv, out, params, summary;
+  int width = 640, height = 512;
+};
+
+struct RunResult {
+  cycle::Strategy strategy;
+  sim::PartType type;
+  int run = 0, initial = 0, picked = 0, cycles = 0, searches = 0;
+  std::vector<std::string> csv_rows;
+  std::vector<double> sensing_in_takt, processing_ms, fusion_ms, estimation_ms, planning_ms, phase_ms, cycle_s;
+};
+
+int usage(const char* argv0) {
+  std::fprintf(stderr,
+               "usage: %s [--types all|NAME,...] [--runs R] [--parts P] [--strategies ours,A,B,C] [--seed N]\n"
+               "          [--json] [--csv FILE] [--out DIR] [--full] [--jobs J] [--max-failures K]\n"
+               "          [--params FILE] [--resolution 640x512|1280x1024] [--summary FILE]\n"
+               "  The picking test of Table III in the simulated cell (all figures simulated).\n"
+               "  Defaults: all 5 types, 1 run of 10 parts, 640x512, 2 jobs. --full: 20 runs of 20 parts.\n"
+               "  --params FILE: sensing parameters per type as written by binpick_calibrate (lines\n"
+               "  'TYPE n t_ms v_percent ...'); otherwise the paper's Table III values.\n"
+               "  --summary FILE: also write the --json summary to FILE.\n"
+               "  --out DIR: fused_depth.png, fused_depth_mm.png, votes.png, sensing_path.svg, timeline.svg of\n"
+               "  one cycle of ours (the second cycle of the first run of the first type).\n",
+               argv0);
+  return 2;
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+cycle::Strategy strategy_from(const std::string& s) {
+  if (s == "ours") return cycle::Strategy::ours;
+  if (s == "A") return cycle::Strategy::single_view;
+  if (s == "B") return cycle::Strategy::random_path;
+  if (s == "C") return cycle::Strategy::stop_and_go;
+  throw std::invalid_argument("unknown strategy '" + s + "' (ours, A, B, C)");
+}
+
+const char* strategy_label(cycle::Strategy s) {
+  switch (s) {
+    case cycle::Strategy::ours: return "ours: multi-view + active vision, sensing parallel to the place action";
+    case cycle::Strategy::single_view: return "A: single view + active vision";
+    case cycle::Strategy::random_path: return "B: random sensing path + multi-view";
+    case cycle::Strategy::stop_and_go: return "C: stop-and-go multi-view (Robot Fusion [12])";
+  }
+  return "";
+}
+
+std::map<int, Params> read_params(const std::string& path) {
+  std::map<int, Params> m;
+  std::ifstream f(path);
+  if (!f) throw std::runtime_error("cannot read '" + path + "'");
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    std::string name;
+    Params p;
+    if (!(ss >> name >> p.n >> p.t_ms >> p.v_percent)) throw std::runtime_error("malformed line in '" + path + "': " + line);
+    m[int(sim::part_type_from_name(name))] = p;
+  }
+  return m;
+}
+
+const char* plan_status_id(active_vision::SensingPathStatus s) {
+  switch (s) {
+    case active_vision::SensingPathStatus::ok: return "ok";
+    case active_vision::SensingPathStatus::collinear_points: return "collinear_points";
+    case active_vision::SensingPathStatus::sphere_misses_plane: return "sphere_misses_plane";
+    case active_vision::SensingPathStatus::no_start_point: return "no_start_point";
+    case active_vision::SensingPathStatus::coverage_exceeds_arc: return "coverage_exceeds_arc";
+    case active_vision::SensingPathStatus::below_min_elevation: return "below_min_elevation";
+  }
+  return "unknown";
+}
+
+double mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? 0 : s / double(v.size());
+}
+
+RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type, int run, const Params& prm, bool pictures) {
+  simcell::CellOptions co;
+  co.part = type;
+  co.parts = o.parts;
+  co.seed = o.seed * 1000003ULL + std::uint64_t(int(type)) * 7919ULL + std::uint64_t(run);
+  co.width = o.width;
+  co.height = o.height;
+  cycle::PipelineSettings<float> ps;
+  ps.strategy = strategy;
+  ps.num_views = prm.n;
+  ps.interval = prm.t_ms * 1e-3;
+  ps.sensing_speed_percent = float(prm.v_percent);
+  ps.seed = co.seed;
+  ps.keep_images = pictures;
+  simcell::Cell cell(co, ps);
+  RunResult rr;
+  rr.strategy = strategy;
+  rr.type = type;
+  rr.run = run;
+  rr.initial = cell.initial_parts;
+  int failures_in_row = 0;
+  const int max_cycles = 3 * cell.initial_parts + 10;
+  while (cell.remaining() > 0 && failures_in_row < o.max_failures && rr.cycles < max_cycles) {
+    const auto r = cell.pipeline->run_cycle();
+    ++rr.cycles;
+    if (r.search) ++rr.searches;
+    const bool picked = r.status == cycle::CycleStatus::picked;
+    failures_in_row = picked ? 0 : failures_in_row + 1;
+    if (picked) ++rr.picked;
+    if (r.placed) rr.sensing_in_takt.push_back(r.takt.sensing_in_takt());
+    if (r.views > 0) {
+      rr.processing_ms.push_back(r.fusion_ms + r.planning_ms);
+      rr.fusion_ms.push_back(r.fusion_ms);
+      rr.estimation_ms.push_back(r.estimation_ms);
+      rr.planning_ms.push_back(r.planning_ms);
+      rr.phase_ms.push_back(r.takt.processing * 1e3);
+    }
+    rr.cycle_s.push_back(r.takt.cycle_time);
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d\n",
+                  cycle::to_string(strategy), sim::part_type_name(type), run, r.index, cycle::to_string(r.status), int(r.placed),
+                  int(r.search), r.views, r.recognized, cycle::to_string(r.path_source),
+                  plan_status_id(r.next_plan_status), r.takt.cycle_time, r.takt.detour, r.takt.robot_wait,
+                  r.takt.sensing_in_takt(), r.takt.processing, r.fusion_ms, r.estimation_ms, r.planning_ms, cell.remaining());
+    rr.csv_rows.push_back(buf);
+    // Pictures of the first cycle that placed a part (processing in parallel with the drop), else of
+    // the last cycle.
+    const bool last = cell.remaining() == 0 || rr.cycles >= max_cycles || failures_in_row >= o.max_failures;
+    if (pictures && (r.placed || last) && !o.out.empty() && !r.fused_depth.empty()) {
+      pictures = false;
+      simcell::write_fused_pngs(o.out, r.fused_depth, r.votes);
+      simcell::write_path_svg(o.out + "/sensing_path.svg", r, cell.pipeline->settings());
+      simcell::write_timeline_svg(o.out + "/timeline.svg", r);
+    }
+    if (!r.error.empty()) std::fprintf(stderr, "  [%s %s run %d cycle %d] %s\n", cycle::to_string(strategy), sim::part_type_name(type), run, r.index, r.error.c_str());
+  }
+  return rr;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  bool full = false;
+  std::string types = "all", strategies;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      auto next = [&]() -> std::string {
+        if (i + 1 >= argc) throw std::invalid_argument("missing value after " + a);
+        return argv[++i];
+      };
+      if (a == "--types") types = next();
+      else if (a == "--runs") o.runs = std::stoi(next());
+      else if (a == "--parts") o.parts = std::stoi(next());
+      else if (a == "--strategies") strategies = next();
+      else if (a == "--seed") o.seed = std::stoull(next());
+      else if (a == "--json") o.json = true;
+      else if (a == "--csv") o.csv = next();
+      else if (a == "--out") o.out = next();
+      else if (a == "--summary") o.summary = next();
+      else if (a == "--params") o.params = next();
+      else if (a == "--full") full = true;
+      else if (a == "--jobs") o.jobs = std::stoi(next());
+      else if (a == "--max-failures") o.max_failures = std::stoi(next());
+      else if (a == "--resolution") {
+        const std::string r = next();
+        if (r == "640x512") o.width = 640, o.height = 512;
+        else if (r == "1280x1024") o.width = 1280, o.height = 1024;
+        else throw std::invalid_argument("--resolution must be 640x512 or 1280x1024");
+      } else if (a == "--help" || a == "-h") return usage(argv[0]);
+      else throw std::invalid_argument("unknown option " + a);
+    }
+    if (full) o.runs = 20, o.parts = 20;
+    if (o.runs < 1 || o.parts < 1 || o.jobs < 1 || o.max_failures < 1) throw std::invalid_argument("counts must be >= 1");
+    if (types == "all")
+      for (int k = 0; k < sim::kNumPartTypes; ++k) o.types.push_back(sim::PartType(k));
+    else
+      for (const auto& t : split(types)) o.types.push_back(sim::part_type_from_name(t));
+    if (!strategies.empty()) {
+      o.strategies.clear();
+      for (const auto& s : split(strategies)) o.strategies.push_back(strategy_from(s));
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "binpick_sim: %s\n", e.what());
+    return usage(argv[0]);
+  }
+  std::map<int, Params> params;
+  try {
+    if (!o.params.empty()) params = read_params(o.params);
+    if (!o.out.empty()) ::mkdir(o.out.c_str(), 0755);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "binpick_sim: %s\n", e.what());
+    return 1;
+  }
+  auto params_of = [&](sim::PartType t) { return params.count(int(t)) ? params[int(t)] : table3(t); };
+
+  // Jobs: every (strategy, type, run) is independent.
+  struct Job {
+    cycle::Strategy s;
+    sim::PartType t;
+    int run;
+    bool pictures;
+  };
+  std::vector<Job> jobs;
+  for (auto t : o.types)
+    for (int run = 0; run < o.runs; ++run)
+      for (auto s : o.strategies)
+        jobs.push_back({s, t, run, s == o.strategies.front() && s == cycle::Strategy::ours && t == o.types.front() && run == 0 && !o.out.empty()});
+  std::vector<RunResult> results(jobs.size());
+  std::atomic<std::size_t> next{0};
+  std::atomic<int> done{0};
+  std::mutex err_mutex;
+  bool failed = false;
+  auto worker = [&] {
+    for (std::size_t j; (j = next++) < jobs.size();) {
+      try {
+        const Job& jb = jobs[j];
+        results[j] = run_one(o, jb.s, jb.t, jb.run, params_of(jb.t), jb.pictures);
+        const auto& r = results[j];
+        std::lock_guard<std::mutex> lock(err_mutex);
+        std::fprintf(stderr, "[%d/%zu] %-4s %-15s run %2d: picked %2d/%2d in %2d cycles (%d searches)\n", ++done, jobs.size(),
+                     cycle::to_string(jb.s), sim::part_type_name(jb.t), jb.run, r.picked, r.initial, r.cycles, r.searches);
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(err_mutex);
+        std::fprintf(stderr, "binpick_sim: job %zu failed: %s\n", j, e.what());
+        failed = true;
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int k = 0; k < std::min<int>(o.jobs, int(jobs.size())); ++k) pool.emplace_back(worker);
+  for (auto& th : pool) th.join();
+  if (failed) return 1;
+
+  if (!o.csv.empty()) {
+    std::ofstream f(o.csv);
+    f << "strategy,type,run,cycle,status,placed,search,views,recognized,path_source,next_plan_status,cycle_time_s,detour_s,"
+         "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining\n";
+    for (const auto& r : results)
+      for (const auto& row : r.csv_rows) f << row;
+  }
+
+  // Aggregate per strategy and type.
+  std::ostringstream js;
+  js << "{\"runs\": " << o.runs << ", \"parts\": " << o.parts << ", \"seed\": " << o.seed << ", \"resolution\": "
+     << json_string(std::to_string(o.width) + "x" + std::to_string(o.height)) << ", \"strategies\": {";
+  bool first_s = true;
+  for (auto s : o.strategies) {
+    std::vector<double> takt, proc, fus, est, pla, phase, cyc;
+    int searches = 0, runs = 0;
+    if (!o.json) {
+      std::printf("\nStrategy %s\n", strategy_label(s));
+      std::printf("| %-26s |", "Objects");
+      for (auto t : o.types) std::printf(" %-16s |", sim::part_type_name(t));
+      std::printf("\n|%s|", std::string(28, '-').c_str());
+      for (std::size_t k = 0; k < o.types.size(); ++k) std::printf("%s|", std::string(18, '-').c_str());
+      std::printf("\n");
+    }
+    struct Row {
+      double avg, lo, hi;
+      Params p;
+    };
+    std::vector<Row> rows;
+    for (auto t : o.types) {
+      std::vector<double> rates;
+      for (const auto& r : results) {
+        if (r.strategy != s || r.type != t) continue;
+        rates.push_back(r.initial > 0 ? double(r.picked) / double(r.initial) : 1.0);
+        takt.insert(takt.end(), r.sensing_in_takt.begin(), r.sensing_in_takt.end());
+        proc.insert(proc.end(), r.processing_ms.begin(), r.processing_ms.end());
+        fus.insert(fus.end(), r.fusion_ms.begin(), r.fusion_ms.end());
+        est.insert(est.end(), r.estimation_ms.begin(), r.estimation_ms.end());
+        pla.insert(pla.end(), r.planning_ms.begin(), r.planning_ms.end());
+        phase.insert(phase.end(), r.phase_ms.begin(), r.phase_ms.end());
+        cyc.insert(cyc.end(), r.cycle_s.begin(), r.cycle_s.end());
+        searches += r.searches;
+        ++runs;
+      }
+      Params p = params_of(t);
+      if (s == cycle::Strategy::single_view) p.n = 1;
+      rows.push_back({mean(rates), rates.empty() ? 0 : *std::min_element(rates.begin(), rates.end()),
+                      rates.empty() ? 0 : *std::max_element(rates.begin(), rates.end()), p});
+    }
+    if (!o.json) {
+      auto line = [&](const char* name, auto f) {
+        std::printf("| %-26s |", name);
+        for (const auto& r : rows) std::printf(" %-16s |", f(r).c_str());
+        std::printf("\n");
+      };
+      auto pct = [](double x) {
+        char b[32];
+        std::snprintf(b, sizeof b, "%.2f%%", 100 * x);
+        return std::string(b);
+      };
+      line("Sensing parameters", [](const Row& r) {
+        char b[64];
+        std::snprintf(b, sizeof b, "%d views %gms %g%%", r.p.n, r.p.t_ms, r.p.v_percent);
+        return std::string(b);
+      });
+      line("Average complete rate", [&](const Row& r) { return pct(r.avg); });
+      line("Lowest complete rate", [&](const Row& r) { return pct(r.lo); });
+      line("Highest complete rate", [&](const Row& r) { return pct(r.hi); });
+      std::printf("Sensing in takt: %.3f s mean over %zu placing cycles (paper: 0.635 s ours, ~6 s Robot Fusion); "
+                  "searches: %.2f per run\n",
+                  mean(takt), takt.size(), runs ? double(searches) / runs : 0.0);
+      std::printf("Processing per cycle: fusion+ICP %.1f ms + planning %.2f ms = %.1f ms (measured); estimation %.0f ms; "
+                  "whole processing phase with Table I hardware time %.0f ms; mean cycle %.2f s\n",
+                  mean(fus), mean(pla), mean(proc), mean(est), mean(phase), mean(cyc));
+    }
+    js << (first_s ? "" : ", ") << json_string(cycle::to_string(s)) << ": {\"types\": {";
+    first_s = false;
+    for (std::size_t k = 0; k < o.types.size(); ++k) {
+      const auto& r = rows[k];
+      js << (k ? ", " : "") << json_string(sim::part_type_name(o.types[k])) << ": {\"avg_complete_rate\": " << json_number(r.avg)
+         << ", \"min_complete_rate\": " << json_number(r.lo) << ", \"max_complete_rate\": " << json_number(r.hi)
+         << ", \"views\": " << r.p.n << ", \"interval_ms\": " << json_number(r.p.t_ms) << ", \"speed_percent\": "
+         << json_number(r.p.v_percent) << "}";
+    }
+    js << "}, \"sensing_in_takt_s\": " << json_number(mean(takt)) << ", \"processing_ms\": " << json_number(mean(proc))
+       << ", \"estimation_ms\": " << json_number(mean(est)) << ", \"processing_phase_ms\": " << json_number(mean(phase))
+       << ", \"searches_per_run\": " << json_number(runs ? double(searches) / runs : 0.0) << ", \"mean_cycle_s\": "
+       << json_number(mean(cyc)) << "}";
+  }
+  js << "}}";
+  if (o.json) std::printf("%s\n", js.str().c_str());
+  if (!o.summary.empty()) {
+    std::ofstream f(o.summary);
+    f << js.str() << "\n";
+    if (!f) {
+      std::fprintf(stderr, "binpick_sim: cannot write '%s'\n", o.summary.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,100 @@
+#pragma once
+// The simulated picking cell used by binpick_sim, binpick_calibrate and the cycle tests: a piled bin,
+// the fake robot, the fake stereo sensor on its hand, the simulated clock, the reference estimator
+// (which sees only fused depth) and a simulated gripper that judges a grasp against the true scene.
+// Ground truth is used here for two things only: rendering and judging whether a grip holds a part
+// (as the real world does) — it never reaches the estimator or the pipeline.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+
+#include "binpick/cycle/pipeline.hpp"
+#include "binpick/sim.hpp"
+#include "binpick/sim/grasp_model.hpp"
+#include "binpick/sim/reference_estimator.hpp"
+
+namespace binpick::simcell {
+
+/// The simulated gripper: a grip is judged by the simulated world (sim/grasp_model.hpp: a true grasp
+/// of a part within tolerance, and no collision of the gripper with the bin or other parts); a held
+/// part is removed from the bin (the parts on it settle).
+template <typename Scalar_>
+class SimGripper {
+ public:
+  using Scalar = Scalar_;
+  SimGripper(sim::Scene<Scalar>& scene, sim::PartType type, const sim::GraspModelSettings<Scalar>& s = {})
+      : scene_(&scene), type_(type), s_(s) {
+    for (const auto& g : scene.model(type).grasps) opening_ = std::max(opening_, g.opening);
+  }
+
+  bool grip(const Isometry3<Scalar>& T_base_flange, cycle::GripperKind kind) {
+    const auto outcome = sim::evaluate_pick(*scene_, type_, T_base_flange, kind, opening_, s_);
+    ++outcomes_[int(outcome.status)];
+    if (!outcome.success()) return false;
+    scene_->remove_part(outcome.part_id);
+    return true;
+  }
+  void release() {}
+  /// Picks judged so far per sim::PickStatus.
+  const int* outcomes() const { return outcomes_; }
+
+ private:
+  sim::Scene<Scalar>* scene_;
+  sim::PartType type_;
+  sim::GraspModelSettings<Scalar> s_;
+  Scalar opening_ = 0;
+  int outcomes_[4] = {0, 0, 0, 0};
+};
+
+static_assert(cycle::is_gripper<SimGripper<float>>::value, "SimGripper models Gripper");
+
+struct CellOptions {
+  sim::PartType part = sim::PartType::small_screw;
+  int parts = 20;
+  std::uint64_t seed = 1;
+  int width = 640, height = 512;
+  int threads = 1;
+};
+
+/// One bin with its drivers and a pipeline over them.
+struct Cell {
+  using S = float;
+  using Camera = PinholeCamera<S>;
+  using Pipeline = cycle::PickingPipeline<sim::FakeRobot<S>, sim::FakeSensor<S>, sim::ReferenceEstimator<S, Camera>,
+                                          sim::SimClock, SimGripper<S>>;
+  sim::Scene<S> scene;
+  int initial_parts = 0;
+  sim::SimClock clock;
+  std::unique_ptr<sim::FakeRobot<S>> robot;
+  std::unique_ptr<sim::FakeSensor<S>> sensor;
+  std::unique_ptr<sim::ReferenceEstimator<S, Camera>> estimator;
+  std::unique_ptr<SimGripper<S>> gripper;
+  std::unique_ptr<Pipeline> pipeline;
+
+  Cell(const CellOptions& o, cycle::PipelineSettings<S> ps) {
+    sim::SceneSettings<S> ss;
+    ss.part_type = o.part;
+    ss.num_parts = o.parts;
+    scene = sim::Scene<S>::generate(ss, o.seed);
+    initial_parts = int(scene.parts().size());
+    sim::FakeRobotSettings<S> rs;
+    rs.seed = o.seed;
+    robot = std::make_unique<sim::FakeRobot<S>>(clock, ps.T_base_drop, rs);
+    sim::StereoSensorSettings<S> st;
+    st.width = o.width;
+    st.height = o.height;
+    st.seed = o.seed;
+    st.num_threads = o.threads;
+    sensor = std::make_unique<sim::FakeSensor<S>>(scene, *robot, clock, ps.T_flange_camera, st);
+    sim::ReferenceEstimatorSettings<S> es;
+    es.num_threads = o.threads;
+    estimator = std::make_unique<sim::ReferenceEstimator<S, Camera>>(scene.model(o.part), es);
+    gripper = std::make_unique<SimGripper<S>>(scene, o.part);
+    ps.fusion.num_threads = o.threads;
+    pipeline = std::make_unique<Pipeline>(*robot, *sensor, *estimator, clock, *gripper, ps);
+  }
+  int remaining() const { return int(scene.parts().size()); }
+};
+
+}  // namespace binpick::simcell
