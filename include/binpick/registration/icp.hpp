@@ -84,7 +84,7 @@ struct IcpSettings {
   /// Bounds on the total correction (result relative to the initial pose); beyond -> diverged.
   Scalar max_correction_translation = std::numeric_limits<Scalar>::infinity();  ///< [m]
   Scalar max_correction_rotation = std::numeric_limits<Scalar>::infinity();     ///< [rad]
-  int num_threads = 0;  ///< 0 = all cores
+  int num_threads = 0;  ///< 0 = all cores; the last bits of the result depend on the count (file comment)
 };
 
 template <typename Scalar>
