@@ -12,6 +12,11 @@
 #include "binpick/registration.hpp"
 #define BINPICK_RELIABILITY_REGISTRATION 1
 #endif
+#if __has_include("binpick/cycle/pipeline.hpp")
+#include "binpick/cycle/pipeline.hpp"
+#include "binpick/sim/sim_clock.hpp"
+#define BINPICK_RELIABILITY_CYCLE 1
+#endif
 
 namespace binpick::reliability {
 
@@ -188,6 +193,158 @@ void add_registration_cases(std::vector<Case>& out) {
 #endif
 }
 
-void add_cycle_cases(std::vector<Case>& out) { (void)out; }
+#ifdef BINPICK_RELIABILITY_CYCLE
+namespace {
+// Minimal drivers with switchable misbehaviour, enough to construct and run the pipeline.
+struct StubRobot {
+  using Scalar = float;
+  sim::SimClock* clock;
+  double arrival = 0;
+  bool nan_pose = false;
+  double move_along(const std::vector<Isometry3<float>>& path, float) {
+    require(!path.empty(), "T_base_flange_path", "is empty");
+    arrival = clock->now() + 0.1;
+    at = path.back();
+    return arrival;
+  }
+  bool is_moving() const { return clock->now() < arrival; }
+  cycle::StampedPose<float> read_flange_pose() {
+    cycle::StampedPose<float> r{at, clock->now()};
+    if (nan_pose) r.T_base_flange(0, 3) = Bad<float>::nan();
+    return r;
+  }
+  Isometry3<float> at = Isometry3<float>::Identity();
+};
+struct StubSensor {
+  using Scalar = float;
+  using Camera = PinholeCamera<float>;
+  sim::SimClock* clock;
+  float fill = 0.5f;
+  bool throw_on_trigger = false;
+  Camera cam{40, 40, 15.5f, 11.5f, 32, 24};
+  std::vector<cycle::DepthFrame<float>> memory;
+  const Camera& camera() const { return cam; }
+  float accuracy() const { return 0.001f; }
+  double trigger() {
+    if (throw_on_trigger) throw std::runtime_error("stub: trigger failed");
+    cycle::DepthFrame<float> f;
+    f.depth = DepthImage<float>(32, 24, fill);
+    f.trigger_time = clock->now();
+    memory.push_back(std::move(f));
+    return clock->now();
+  }
+  std::size_t frames_in_memory() const { return memory.size(); }
+  std::vector<cycle::DepthFrame<float>> read_frames() { return std::move(memory); }
+};
+struct StubEstimator {
+  using Scalar = float;
+  using Camera = PinholeCamera<float>;
+  bool nan_object = false;
+  cycle::EstimationResult<float> estimate(const cycle::EstimatorInput<float, Camera>&) {
+    cycle::EstimationResult<float> r;
+    if (nan_object) {
+      r.status = cycle::EstimationStatus::ok;
+      cycle::RecognizedObject<float> o;
+      o.T_camera_object(1, 3) = Bad<float>::nan();
+      o.T_camera_grasp(2, 3) = Bad<float>::inf();
+      o.confidence_percent = Bad<float>::nan();
+      r.objects.push_back(o);
+    }
+    return r;
+  }
+};
+struct StubGripper {
+  using Scalar = float;
+  bool grip(const Isometry3<float>&, cycle::GripperKind) { return false; }
+  void release() {}
+};
+using StubPipeline = cycle::PickingPipeline<StubRobot, StubSensor, StubEstimator, sim::SimClock, StubGripper>;
+
+struct StubCell {
+  sim::SimClock clock;
+  StubRobot robot{&clock};
+  StubSensor sensor{&clock};
+  StubEstimator estimator;
+  StubGripper gripper;
+};
+
+Outcome run_stub_cycles(StubCell& c, const cycle::PipelineSettings<float>& s, int cycles) {
+  StubPipeline p(c.robot, c.sensor, c.estimator, c.clock, c.gripper, s);
+  Outcome o;
+  for (int i = 0; i < cycles; ++i) {
+    const auto r = p.run_cycle();
+    o.status = cycle::to_string(r.status);
+    o.add(r.takt.cycle_time).add(r.target);
+    for (const auto& T : r.T_base_captures_read) o.add(T.matrix());
+  }
+  return o;
+}
+
+void cycle_cases(Matrix& m) {
+  using PS = cycle::PipelineSettings<float>;
+  auto construct = [](PS s) {
+    StubCell c;
+    StubPipeline p(c.robot, c.sensor, c.estimator, c.clock, c.gripper, s);
+    return Outcome{};
+  };
+  struct Setting { std::string arg; std::function<void(PS&, float)> set; std::vector<float> bad; };
+  const float nan = Bad<float>::nan(), inf = Bad<float>::inf();
+  const std::vector<Setting> settings = {
+      {"interval", [](PS& s, float v) { s.interval = v; }, {0, -1, nan, inf}},
+      {"speed_percent", [](PS& s, float v) { s.sensing_speed_percent = v; }, {0, -1, 101, nan, inf}},
+      {"speed_percent", [](PS& s, float v) { s.motion_speed_percent = v; }, {0, 1e30f, nan}},
+      {"full_speed", [](PS& s, float v) { s.full_speed = v; }, {0, -1, nan, inf}},
+      {"working_distance", [](PS& s, float v) { s.working_distance = v; }, {0, -1, nan, inf}},
+      {"search_beta_factor", [](PS& s, float v) { s.search_beta_factor = v; }, {0.5f, nan}},
+      {"stop_time", [](PS& s, float v) { s.stop_time = v; }, {-1, nan}},
+      {"lift_clearance", [](PS& s, float v) { s.lift_clearance = v; }, {-1, nan}},
+      {"bin_length", [](PS& s, float v) { s.bin_length = v; }, {0, -1, nan}},
+      {"bin_center", [](PS& s, float v) { s.bin_center.y() = v; }, {nan, inf}},
+      {"max_stamp_offset", [](PS& s, float v) { s.max_stamp_offset = v; }, {0, -1, nan}},
+  };
+  for (const auto& st : settings)
+    for (float v : st.bad)
+      m.throws("pipeline " + st.arg + " " + std::to_string(v), st.arg, [=] {
+        PS s;
+        st.set(s, v);
+        return construct(s);
+      });
+  for (int n : {0, -1, 65})
+    m.throws("pipeline num_views " + std::to_string(n), "num_views", [=] { PS s; s.num_views = n; return construct(s); });
+  for (const char* which : {"T_flange_camera", "T_base_drop"}) {
+    m.throws(std::string("pipeline ") + which + " nan", which, [=] {
+      PS s;
+      (std::string(which) == "T_flange_camera" ? s.T_flange_camera : s.T_base_drop)(0, 3) = nan;
+      return construct(s);
+    });
+    m.throws(std::string("pipeline ") + which + " scaled", which, [=] {
+      PS s;
+      (std::string(which) == "T_flange_camera" ? s.T_flange_camera : s.T_base_drop).linear() *= 1.1f;
+      return construct(s);
+    });
+  }
+  // Misbehaving drivers: each ends the cycle with its status, never an exception or a NaN.
+  m.gives("pipeline all-NaN frames", "nothing_recognized", [] { StubCell c; c.sensor.fill = Bad<float>::nan(); return run_stub_cycles(c, PS{}, 3); });
+  m.gives("pipeline all-zero frames", "nothing_recognized", [] { StubCell c; c.sensor.fill = 0; return run_stub_cycles(c, PS{}, 3); });
+  m.gives("pipeline NaN pose reads", "robot_failure", [] { StubCell c; c.robot.nan_pose = true; return run_stub_cycles(c, PS{}, 2); });
+  m.gives("pipeline trigger throws", "sensor_failure", [] { StubCell c; c.sensor.throw_on_trigger = true; return run_stub_cycles(c, PS{}, 2); });
+  m.gives("pipeline NaN object from the estimator", "nothing_recognized", [] {
+    StubCell c;
+    c.estimator.nan_object = true;
+    return run_stub_cycles(c, PS{}, 2);
+  });
+}
+}  // namespace
+#endif
+
+void add_cycle_cases(std::vector<Case>& out) {
+#ifdef BINPICK_RELIABILITY_CYCLE
+  Matrix m("cycle: ");
+  cycle_cases(m);
+  for (auto& c : m.cases()) out.push_back(std::move(c));
+#else
+  (void)out;
+#endif
+}
 
 }  // namespace binpick::reliability
