@@ -113,6 +113,7 @@ void check_identity_when_source_is_target(Assoc assoc) {
   const AnalyticScene scene = random_scene();
   const auto cam = test_camera<Scalar>();
   const DepthImage<Scalar> depth = scene.render(cam, Eigen::Isometry3d::Identity());
+  RC_PRE(depth.valid_count() > 1000 && observability(depth, cam) > 1e-3);  // as in the recovery property
   const IcpResult<Scalar> r = register_views(depth, depth, Isometry3<Scalar>::Identity(), assoc);
   RC_ASSERT(r.status == IcpStatus::converged);
   const auto [et, er] = pose_error<Scalar>(r.T_target_source, Isometry3<Scalar>::Identity());
@@ -128,6 +129,8 @@ void check_inverse_start_gives_inverse() {
   const Eigen::Isometry3d T_true = random_pose<double>(3 * kDeg, 0.01);
   const DepthImage<Scalar> a = scene.render(cam, Eigen::Isometry3d::Identity());
   const DepthImage<Scalar> b = scene.render(cam, T_true);
+  RC_PRE(a.valid_count() > 1000 && b.valid_count() > 1000);
+  RC_PRE(observability(a, cam) > 1e-3 && observability(b, cam) > 1e-3);  // as in the recovery property
   const Eigen::Isometry3d P = random_pose<double>(2 * kDeg, 0.005 / std::sqrt(3.0));
   const Isometry3<Scalar> init = (P * T_true).cast<Scalar>();
   const IcpResult<Scalar> ab = register_views(b, a, init, Assoc::projective);
