@@ -12,21 +12,14 @@
 #include <omp.h>
 #endif
 
-#include "binpick/core/errors.hpp"
+#include "binpick/core/parallel.hpp"
 
 namespace binpick {
 namespace registration_detail {
 
-/// Threads to use for a requested count (0 = all cores); 1 without OpenMP.
-inline int resolve_threads(int requested) {
-  require(requested >= 0, "num_threads", "must be >= 0 (0 = all cores)");
-#ifdef _OPENMP
-  return requested == 0 ? omp_get_num_procs() : requested;
-#else
-  (void)requested;
-  return 1;
-#endif
-}
+/// Threads to use for a requested count (0 = all cores); 1 without OpenMP. The project-wide rule,
+/// kept under this name for the registration headers.
+inline int resolve_threads(int requested) { return detail::resolve_num_threads(requested); }
 
 /// Calls f(i) for i in [0, n) on `threads` threads (independent iterations).
 template <typename F>
