@@ -5,6 +5,7 @@
 #include <rapidcheck/gtest.h>
 
 #include <stdexcept>
+#include <thread>
 
 #include "binpick/cycle.hpp"
 #include "binpick/sim.hpp"
@@ -120,7 +121,9 @@ struct OracleEstimator {
   using Camera = ::Camera;
   const sim::Scene<S>* scene;
   const TestSensor* sensor;
+  std::vector<std::thread::id> threads;  // the thread of each call
   cycle::EstimationResult<S> estimate(const cycle::EstimatorInput<S, Camera>& in) {
+    threads.push_back(std::this_thread::get_id());
     cycle::EstimationResult<S> r;
     if (!in.camera) {
       r.status = cycle::EstimationStatus::invalid_input;
@@ -211,6 +214,19 @@ TEST(Pipeline, EmptiesASmallPileWithProcessingDuringTheDrop) {
   }
   EXPECT_TRUE(cell.scene.parts().empty()) << "pile not emptied in " << cycles << " cycles";
   EXPECT_GE(placed, 2);
+}
+
+TEST(Pipeline, ProcessesEveryCycleOnOneThreadItOwns) {
+  TestCell cell(3, cycle::Strategy::ours);
+  for (int k = 0; k < 3; ++k) {
+    const auto r = cell.pipeline->run_cycle();
+    ASSERT_TRUE(r.error.empty()) << r.error;
+  }
+  const auto& ids = cell.estimator.threads;
+  ASSERT_EQ(ids.size(), 3u);
+  EXPECT_NE(ids[0], std::this_thread::get_id());  // processing overlaps the drop
+  EXPECT_EQ(ids[1], ids[0]);                      // not a new thread per cycle
+  EXPECT_EQ(ids[2], ids[0]);
 }
 
 TEST(Pipeline, StopAndGoSpendsMoreTimeInTakt) {

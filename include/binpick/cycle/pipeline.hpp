@@ -41,14 +41,15 @@
 /// triggered end the cycle with a status and a message. The pipeline then drains the
 /// sensor memory, waits for the robot to stop, returns it to the home point and falls back to the
 /// predefined path; the part in hand (if any) is still held and is dropped by the next cycle.
-/// The worker thread is always joined before run_cycle returns. The library never prints.
+/// Processing runs on one worker thread the pipeline owns (started by the first cycle, joined by the
+/// destructor, worker_thread.hpp); run_cycle returns only after the cycle's job has ended. The library
+/// never prints.
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <exception>
-#include <future>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -61,6 +62,7 @@
 #include "binpick/cycle/drivers.hpp"
 #include "binpick/cycle/gripper.hpp"
 #include "binpick/cycle/takt.hpp"
+#include "binpick/cycle/worker_thread.hpp"
 #include "binpick/fusion/fuse.hpp"
 
 namespace binpick::cycle {
@@ -122,6 +124,15 @@ struct PipelineSettings {
   bool crop_to_bin = true;
   Scalar crop_margin = Scalar(0.015);      ///< [m]
   Scalar crop_height = Scalar(0.05);       ///< [m] above the wall top
+  /// Fused depth more than this below the bin floor is removed too: nothing lies below the floor, such
+  /// points are inter-reflection ghosts behind it (SENSOR_MODEL.md) that a model fitter sinks parts into [m].
+  Scalar crop_floor = Scalar(0.002);
+  /// Grasp points lower than this above the bin floor are not chosen: fingers or cup would hit the
+  /// floor, and no part lying on it is grasped that low (such fits are ghosts or floor pieces) [m].
+  Scalar min_grasp_height = Scalar(0.002);
+  /// After a failed grip, objects whose grasp point lies within this of it are chosen only when no other
+  /// is left, until a grip succeeds: the same fused depth gives the same wrong pose again [m].
+  Scalar retry_distance = Scalar(0.01);
   std::uint64_t seed = 1;                  ///< random target points of random_path
   bool keep_images = false;                ///< keep the fused depth and votes in the CycleResult
   /// A pose read or a frame stamped further than this from its view's trigger is not matched to the
@@ -300,6 +311,9 @@ class PickingPipeline {
     require(std::isfinite(s.max_stamp_offset) && s.max_stamp_offset > 0, "max_stamp_offset", "must be finite and > 0");
     require(std::isfinite(s.lift_clearance) && s.lift_clearance >= 0, "lift_clearance", "must be finite and >= 0");
     require(std::isfinite(s.approach_distance) && s.approach_distance >= 0, "approach_distance", "must be finite and >= 0");
+    require(std::isfinite(s.crop_floor) && s.crop_floor >= 0, "crop_floor", "must be finite and >= 0");
+    require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");
+    require(std::isfinite(s.retry_distance) && s.retry_distance >= 0, "retry_distance", "must be finite and >= 0");
     require(s.bin_length > 0 && s.bin_width > 0 && s.bin_height > 0, "bin_length", "bin sizes must be > 0");
     require_all_finite(s.bin_center, "bin_center");
     require_valid_pose(s.T_flange_camera, "T_flange_camera");
@@ -564,7 +578,7 @@ class PickingPipeline {
         Scalar& z = fused.depth.data()[std::size_t(v) * std::size_t(w) + std::size_t(u)];
         if (!(z > Scalar(0)) || !std::isfinite(z)) continue;
         const Vec3 p = T * Vec3(cam.backproject(Scalar(u), Scalar(v), z)) - s_.bin_center;
-        if (std::abs(p.x()) > hx || std::abs(p.y()) > hy || p.z() + s_.bin_center.z() > z_top) {
+        if (std::abs(p.x()) > hx || std::abs(p.y()) > hy || p.z() + s_.bin_center.z() > z_top || p.z() < -s_.crop_floor) {
           z = Scalar(0);
           if (!fused.votes.votes.empty()) fused.votes.votes[std::size_t(v) * std::size_t(w) + std::size_t(u)] = 0;
         }
@@ -581,19 +595,26 @@ class PickingPipeline {
       confidences.push_back(std::max(Scalar(0), o.confidence_percent));
     }
     out.objects_base = positions;
-    // The most confident object whose approach is within the tilt limit (objects come sorted).
+    // The most confident object whose approach is within the tilt limit (objects come sorted), first
+    // away from the grips that failed since the last success, then anywhere.
     std::size_t chosen = active_vision::no_grasped_object;
-    for (std::size_t k = 0; k < est.objects.size(); ++k) {
-      const Pose T = T_base_ref * est.objects[k].T_camera_grasp;
-      if (!detail::is_rigid_finite(T)) continue;
-      const Scalar down = -T.linear().col(2).z();
-      if (down >= std::cos(s_.max_approach_tilt)) {
-        chosen = k;
-        out.T_base_grasp = T;
-        out.gripper = est.objects[k].gripper;
-        break;
+    for (int pass = 0; pass < 2 && chosen == active_vision::no_grasped_object; ++pass)
+      for (std::size_t k = 0; k < est.objects.size(); ++k) {
+        const Pose T = T_base_ref * est.objects[k].T_camera_grasp;
+        if (!detail::is_rigid_finite(T)) continue;
+        if (T.translation().z() - s_.bin_center.z() < s_.min_grasp_height) continue;
+        const bool near_failed = std::any_of(failed_grasps_.begin(), failed_grasps_.end(), [&](const Vec3& f) {
+          return (f - T.translation()).norm() < s_.retry_distance;
+        });
+        if (pass == 0 && near_failed) continue;
+        const Scalar down = -T.linear().col(2).z();
+        if (down >= std::cos(s_.max_approach_tilt)) {
+          chosen = k;
+          out.T_base_grasp = T;
+          out.gripper = est.objects[k].gripper;
+          break;
+        }
       }
-    }
     if (chosen == active_vision::no_grasped_object) {
       out.has_grasp = false;
       out.status = CycleStatus::nothing_recognized;
@@ -680,6 +701,10 @@ class PickingPipeline {
     }
     move({pre, next_B_}, s_.motion_speed_percent, "lift A->B", tl);
     holding_ = held;
+    if (held)
+      failed_grasps_.clear();
+    else
+      failed_grasps_.push_back(p.T_base_grasp.translation());
     next_ = p.next;
     r.status = held ? CycleStatus::picked : CycleStatus::grasp_failed;
   }
@@ -739,7 +764,8 @@ class PickingPipeline {
 
     // Data processing in a worker thread while the robot drops the part (N→C).
     const std::size_t triggered = cap.trigger_times.size();
-    std::future<Processed> worker = std::async(std::launch::async, [this, &cap, triggered] { return process(cap, triggered); });
+    Processed p;
+    worker_.start([this, &cap, triggered, &p] { p = process(cap, triggered); });
     double t_place_end = clock_->now();
     if (holding_at_start) {
       try {
@@ -748,12 +774,15 @@ class PickingPipeline {
         holding_ = false;
         r.placed = true;
       } catch (...) {
-        worker.wait();  // never leave the worker running
+        try {  // never leave the job running; the drop's failure is the one reported
+          worker_.wait();
+        } catch (...) {
+        }
         drain();
         throw;
       }
     }
-    Processed p = worker.get();
+    worker_.wait();
     const double t_ready = record_processing(p, t_collect_end, triggered, tl, r);
     take_processed(p, r);
     const double t_wait0 = clock_->now();
@@ -843,6 +872,7 @@ class PickingPipeline {
   Gripper* gripper_;
   PipelineSettings<Scalar> s_;
   Fuser<Scalar, Camera> fuser_;
+  detail::WorkerThread worker_;  // runs process() of run_nonstop
   std::uint64_t rng_;
   int n_ = 1;
   Scalar beta_ = 0;
@@ -852,6 +882,7 @@ class PickingPipeline {
   Pose approach_from_ = Pose::Identity();
   double approach_time_ = 0;
   Plan predefined_, search_, next_;
+  std::vector<Vec3> failed_grasps_;  // grasp points of the grips that failed since the last success
   bool first_ = true;
   bool holding_ = false;
   int cycles_ = 0;
