@@ -25,14 +25,7 @@ namespace {
 // Camera at `eye` looking at `target`, image x along base +x where possible (camera: x right,
 // y down, z forward).
 Isometry3f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& target) {
-  const Eigen::Vector3f z = (target - eye).normalized();
-  const Eigen::Vector3f x = z.cross(Eigen::Vector3f::UnitY()).normalized();
-  Isometry3f T = Isometry3f::Identity();
-  T.linear().col(0) = x;
-  T.linear().col(1) = z.cross(x);
-  T.linear().col(2) = z;
-  T.translation() = eye;
-  return T;
+  return camera_looking_at<float>(eye, target, Eigen::Vector3f::UnitY());
 }
 
 void write_pose(const std::string& path, const Isometry3f& T) {

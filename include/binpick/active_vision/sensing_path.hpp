@@ -112,28 +112,7 @@ struct SensingPath {
   bool ok() const { return status == SensingPathStatus::ok; }
 };
 
-/// A camera pose at `position` looking at `target` (z forward), with x = z × `axis` normalized and
-/// y = z × x (OpenCV convention). For the sensing arc `axis` is the sweep axis k, so x points along the
-/// travel. If z is (nearly) parallel to `axis` a perpendicular of z is used for x instead (never NaN).
-/// Preconditions (not checked, internal use): position != target, unit axis.
-template <typename Scalar>
-Isometry3<Scalar> camera_looking_at(const Vector3<Scalar>& position, const Vector3<Scalar>& target,
-                                    const Vector3<Scalar>& axis) {
-  const Vector3<Scalar> z = (target - position).normalized();
-  Vector3<Scalar> x = z.cross(axis);
-  const Scalar x_len = x.norm();
-  if (x_len > geometry::GeometryTolerance<Scalar>::relative()) {
-    x /= x_len;
-  } else {
-    x = z.unitOrthogonal();
-  }
-  Isometry3<Scalar> T = Isometry3<Scalar>::Identity();
-  T.linear().col(0) = x;
-  T.linear().col(1) = z.cross(x);
-  T.linear().col(2) = z;
-  T.translation() = position;
-  return T;
-}
+using binpick::camera_looking_at;  // core/pose.hpp; poses of the arc use it with the sweep axis
 
 /// Alg. 2 on `request` (see the file comment).
 template <typename Scalar>

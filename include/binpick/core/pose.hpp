@@ -52,6 +52,30 @@ Isometry3<Scalar> relative_pose(const Isometry3<Scalar>& T_base_ref, const Isome
   return T_base_ref.inverse(Eigen::Isometry) * T_base_view;
 }
 
+/// A camera pose at `position` looking at `target` (z forward), with x = z × `axis` normalized and
+/// y = z × x (OpenCV convention). For a sensing arc `axis` is the sweep axis k, so x points along the
+/// travel; with `axis` = base y, a camera looking down (−z) has image x along base +x. If z is (nearly)
+/// parallel to `axis`, a perpendicular of z is used for x instead (never NaN).
+/// Preconditions (not checked): position != target, unit axis.
+template <typename Scalar>
+Isometry3<Scalar> camera_looking_at(const Vector3<Scalar>& position, const Vector3<Scalar>& target,
+                                    const Vector3<Scalar>& axis) {
+  const Vector3<Scalar> z = (target - position).normalized();
+  Vector3<Scalar> x = z.cross(axis);
+  const Scalar x_len = x.norm();
+  if (x_len > ScalarTraits<Scalar>::degenerate_tolerance()) {
+    x /= x_len;
+  } else {
+    x = z.unitOrthogonal();
+  }
+  Isometry3<Scalar> T = Isometry3<Scalar>::Identity();
+  T.linear().col(0) = x;
+  T.linear().col(1) = z.cross(x);
+  T.linear().col(2) = z;
+  T.translation() = position;
+  return T;
+}
+
 /// Rotation angle [rad] and translation norm [m] of a pose (e.g. a correction).
 template <typename Scalar>
 Scalar rotation_angle(const Isometry3<Scalar>& T) {
