@@ -5,10 +5,19 @@
 // cycle ended, how many cycles it cost, and whether any cycle fused a view whose pose read was far
 // from where the camera truly was. Prints one JSON line.
 //
-//   binpick_soak --cycles 2000                       the documented soak (about 20 min at 320x256)
-//   binpick_soak --cycles 200 --fault-rate 0.15      the CI run (.ci/run)
+// Resident memory is what the operating system sees; the live heap (allocator bytes in use) is what a
+// leak would grow. The two differ by the free memory the allocator keeps: glibc raises its mmap and
+// trim thresholds after the first large free, so per-cycle image buffers are recycled inside the
+// heap and the heap's high-water mark stays resident. Both are reported; resident memory is checked.
+//
+//   binpick_soak --cycles 2000 --fault-rate 0.15 --resolution 320x256   the documented soak (~15 min)
+//   binpick_soak --cycles 200 --warmup 50 --fault-rate 0.15 --resolution 320x256   the CI run (.ci/run)
 #include <dirent.h>
 #include <unistd.h>
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+#include <malloc.h>
+#define BINPICK_SOAK_MALLINFO2 1
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -33,11 +42,26 @@ using binpick::tools::json_number;
 namespace {
 
 struct Options {
-  int cycles = 200, parts = 12, width = 640, height = 512, threads = 1, warmup = -1;
+  int cycles = 200, parts = 1, stuck = 40, width = 640, height = 512, threads = 1, warmup = -1;
   std::uint64_t seed = 1;
   double fault_rate = 0;
   double max_rss_growth = 0.01;  // [-] failing threshold after warm-up
+  std::string trace;             // per-cycle CSV (memory and time curves), empty = none
 };
+
+/// Heap of the allocator (all arenas): bytes obtained from the system, in use, free inside the
+/// arenas, and in separately mapped blocks. Zero where glibc's mallinfo2 is not available.
+struct HeapStats {
+  std::size_t arena = 0, in_use = 0, free = 0, mapped = 0;
+};
+HeapStats heap_stats() {
+  HeapStats h;
+#ifdef BINPICK_SOAK_MALLINFO2
+  const struct mallinfo2 m = ::mallinfo2();
+  h.arena = m.arena, h.in_use = m.uordblks, h.free = m.fordblks, h.mapped = m.hblkhd;
+#endif
+  return h;
+}
 
 long rss_kb() {
   std::ifstream in("/proc/self/status");
@@ -108,6 +132,7 @@ int main(int argc, char** argv) {
     try {
       if (a == "--cycles") o.cycles = int(tools::parse_number(next(), "--cycles"));
       else if (a == "--parts") o.parts = int(tools::parse_number(next(), "--parts"));
+      else if (a == "--stuck") o.stuck = int(tools::parse_number(next(), "--stuck"));
       else if (a == "--seed") o.seed = std::uint64_t(tools::parse_number(next(), "--seed"));
       else if (a == "--fault-rate") o.fault_rate = tools::parse_number(next(), "--fault-rate");
       else if (a == "--warmup") o.warmup = int(tools::parse_number(next(), "--warmup"));
@@ -119,12 +144,15 @@ int main(int argc, char** argv) {
         else throw std::invalid_argument("--resolution must be 320x256 or 640x512");
       }
       else if (a == "--max-rss-growth") o.max_rss_growth = tools::parse_number(next(), "--max-rss-growth");
+      else if (a == "--trace") o.trace = next();
       else if (a == "--help" || a == "-h") {
-        std::printf("usage: binpick_soak [--cycles N=200] [--parts P=12] [--seed S=1] [--fault-rate F=0]\n"
+        std::printf("usage: binpick_soak [--cycles N=200] [--parts P=1] [--stuck K=40] [--seed S=1] [--fault-rate F=0]\n"
                     "                    [--warmup W=N/10] [--threads T=1] [--max-rss-growth G=0.01]\n"
-                    "                    [--resolution 640x512|320x256]\n"
-                    "Runs N picking cycles of the simulated cell (small screws, 640x512), refilling the bin when\n"
-                    "it is empty; with F > 0 a driver fault is injected in a cycle with probability F (seeded).\n"
+                    "                    [--resolution 640x512|320x256] [--trace FILE.csv]\n"
+                    "Runs N picking cycles of the simulated cell (small screws, 640x512), refilling the bin with P\n"
+                    "parts when it is empty, and swapping it for a fresh fill after K cycles without a pick; with\n"
+                    "F > 0 a driver fault is injected in a cycle with probability F (seeded). --trace writes one\n"
+                    "CSV row per cycle (status, parts in the bin, processing time, resident memory, heap, threads).\n"
                     "Prints one JSON line; exits 1 when memory grows more than G after warm-up, a file\n"
                     "descriptor or thread leaks, or a cycle fused a view with a wrong pose.\n");
         return 0;
@@ -137,8 +165,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (o.cycles < 2 || o.parts < 1 || !(o.fault_rate >= 0 && o.fault_rate <= 1) || o.threads < 0) {
-    std::fprintf(stderr, "binpick_soak: --cycles >= 2, --parts >= 1, --fault-rate in [0, 1], --threads >= 0\n");
+  if (o.cycles < 2 || o.parts < 1 || o.stuck < 1 || !(o.fault_rate >= 0 && o.fault_rate <= 1) || o.threads < 0) {
+    std::fprintf(stderr, "binpick_soak: --cycles >= 2, --parts >= 1, --stuck >= 1, --fault-rate in [0, 1], --threads >= 0\n");
     return 2;
   }
   if (o.warmup < 0) o.warmup = std::max(1, o.cycles / 10);
@@ -173,23 +201,42 @@ int main(int argc, char** argv) {
   es.num_threads = o.threads;
   Estimator estimator(scene.model(part), es);
   simcell::SimGripper<S> gripper(scene, part);
-  Pipeline pipeline(robot, sensor, estimator, clock, gripper, ps);
+  // Owned here so it can be destroyed before the final count: its processing thread lives as long as it.
+  auto pipeline = std::make_unique<Pipeline>(robot, sensor, estimator, clock, gripper, ps);
+
+  std::FILE* trace = nullptr;
+  if (!o.trace.empty()) {
+    trace = std::fopen(o.trace.c_str(), "w");
+    if (!trace) {
+      std::fprintf(stderr, "binpick_soak: cannot write %s\n", o.trace.c_str());
+      return 2;
+    }
+    std::fprintf(trace, "cycle,status,parts_in_bin,refills,swaps,processing_ms,rss_kb,heap_arena_kb,heap_in_use_kb,heap_free_kb,heap_mapped_kb,threads\n");
+  }
 
   std::uint64_t rng = o.seed * 0x9E3779B97F4A7C15ULL + 0xfa17ULL;  // the fault schedule
   std::vector<double> cycle_ms, processing_ms;
   std::map<std::string, int> statuses;
   FaultStats faults[soak::kNumFaults];
-  int refills = 0, picked = 0, nothing_in_row = 0, wrong_pose_cycles = 0;
+  int refills = 0, swaps = 0, picked = 0, since_pick = 0, wrong_pose_cycles = 0;
   long rss_warm = -1, rss_peak_after_warm = 0;
+  std::size_t heap_warm = 0;  // live heap [bytes]
+  int threads_warm = -1, threads_peak_after_warm = 0;
   // A fault's cost: the failed cycle plus any further failed cycles until the next normal one.
   int open_fault = -1;
   for (int c = 0; c < o.cycles; ++c) {
-    if (scene.parts().empty() || nothing_in_row >= 5) {  // refill: a new pile dropped on what is left
-      const auto fresh = sim::Scene<S>::generate(ss, o.seed + std::uint64_t(1000 + refills));
+    // Refill when the bin is empty. A bin that yields no pick for --stuck cycles is what an operator
+    // empties and refills by hand (a swap): the pile stays bounded by --parts either way, so memory
+    // after warm-up compares like with like.
+    const bool empty = scene.parts().empty(), stuck = !empty && since_pick >= o.stuck;
+    if (empty || stuck) {
+      while (!scene.parts().empty()) scene.remove_part(scene.parts().back().id);  // the last settles nothing
+      const auto fresh = sim::Scene<S>::generate(ss, o.seed + std::uint64_t(1000 + refills + swaps));
       for (const auto& p : fresh.parts())
         scene.add_part(p.type, p.T_base_part.linear(), p.T_base_part.translation().template head<2>());
-      ++refills;
-      nothing_in_row = 0;
+      refills += empty;
+      swaps += stuck;
+      since_pick = 0;
     }
     soak::Arm arm;
     if (o.fault_rate > 0 && cycle::detail::uniform01(rng) < o.fault_rate) {
@@ -202,13 +249,13 @@ int main(int argc, char** argv) {
     sensor.arm(arm.fault == soak::Fault::frame_lost || arm.fault == soak::Fault::frame_late ? arm : soak::Arm{});
 
     const auto t0 = std::chrono::steady_clock::now();
-    const auto r = pipeline.run_cycle();
+    const auto r = pipeline->run_cycle();
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     cycle_ms.push_back(ms);
     processing_ms.push_back(r.fusion_ms + r.estimation_ms + r.planning_ms);
     ++statuses[cycle::to_string(r.status)];
     picked += r.status == cycle::CycleStatus::picked;
-    nothing_in_row = r.status == cycle::CycleStatus::nothing_recognized ? nothing_in_row + 1 : 0;
+    since_pick = r.status == cycle::CycleStatus::picked ? 0 : since_pick + 1;
 
     // Did this cycle fuse a view whose pose read is far from the truth? Late reads in motion are off
     // by latency x speed (about 2 cm here), which registration absorbs; 5 cm is far beyond that.
@@ -238,10 +285,24 @@ int main(int argc, char** argv) {
         if (failed) open_fault = int(arm.fault);
       }
     }
-    if (c + 1 == o.warmup) rss_warm = rss_kb();
-    if (c + 1 > o.warmup) rss_peak_after_warm = std::max(rss_peak_after_warm, rss_kb());
+    if (trace) {
+      const HeapStats h = heap_stats();
+      std::fprintf(trace, "%d,%s,%zu,%d,%d,%.3f,%ld,%zu,%zu,%zu,%zu,%d\n", c, cycle::to_string(r.status), scene.parts().size(), refills, swaps,
+                   processing_ms.back(), rss_kb(), h.arena / 1024, h.in_use / 1024, h.free / 1024, h.mapped / 1024, thread_count());
+    }
+    if (c + 1 == o.warmup) {
+      const HeapStats h = heap_stats();
+      rss_warm = rss_kb(), threads_warm = thread_count(), heap_warm = h.in_use + h.mapped;
+    }
+    if (c + 1 > o.warmup) {
+      rss_peak_after_warm = std::max(rss_peak_after_warm, rss_kb());
+      threads_peak_after_warm = std::max(threads_peak_after_warm, thread_count());
+    }
   }
   const long rss_end = rss_kb();
+  const HeapStats heap_end = heap_stats();
+  if (trace) std::fclose(trace);
+  pipeline.reset();  // joins the processing thread
   const int fds_after = fd_count(), threads_after = thread_count();
 
   const std::size_t k = std::min<std::size_t>(100, cycle_ms.size() / 2);
@@ -256,14 +317,18 @@ int main(int argc, char** argv) {
   std::string js = "{\"tool\": \"binpick_soak\", \"cycles\": " + std::to_string(o.cycles) + ", \"seed\": " + std::to_string(o.seed) +
                    ", \"resolution\": \"" + std::to_string(o.width) + "x" + std::to_string(o.height) + "\", \"threads\": " +
                    std::to_string(o.threads) + ", \"picked\": " + std::to_string(picked) + ", \"refills\": " + std::to_string(refills) +
+                   ", \"bin_swaps\": " + std::to_string(swaps) + ", \"parts_per_fill\": " + std::to_string(o.parts) +
                    ", \"statuses\": {";
   bool first = true;
   for (const auto& [name, n] : statuses) js += std::string(first ? "" : ", ") + "\"" + name + "\": " + std::to_string(n), first = false;
   js += "}, \"warmup_cycles\": " + std::to_string(o.warmup) + ", \"rss_kb_after_warmup\": " + std::to_string(rss_warm) +
         ", \"rss_kb_peak_after_warmup\": " + std::to_string(rss_peak_after_warm) + ", \"rss_kb_end\": " + std::to_string(rss_end) +
-        ", \"rss_growth\": " + json_number(growth) + ", \"fds_before\": " + std::to_string(fds_before) + ", \"fds_after\": " +
+        ", \"rss_growth\": " + json_number(growth) + ", \"heap_live_kb_after_warmup\": " + std::to_string(heap_warm / 1024) +
+        ", \"heap_live_kb_end\": " + std::to_string((heap_end.in_use + heap_end.mapped) / 1024) + ", \"heap_free_kb_end\": " +
+        std::to_string(heap_end.free / 1024) + ", \"fds_before\": " + std::to_string(fds_before) + ", \"fds_after\": " +
         std::to_string(fds_after) + ", \"threads_before\": " + std::to_string(threads_before) + ", \"threads_after\": " +
-        std::to_string(threads_after) + ", \"cycle_wall_ms_median_first100\": " + json_number(first_cycle) +
+        std::to_string(threads_after) + ", \"threads_after_warmup\": " + std::to_string(threads_warm) +
+        ", \"threads_peak_after_warmup\": " + std::to_string(threads_peak_after_warm) + ", \"cycle_wall_ms_median_first100\": " + json_number(first_cycle) +
         ", \"cycle_wall_ms_median_last100\": " + json_number(last_cycle) + ", \"processing_ms_median_first100\": " +
         json_number(first_proc) + ", \"processing_ms_median_last100\": " + json_number(last_proc) +
         ", \"cycles_fusing_a_wrong_pose\": " + std::to_string(wrong_pose_cycles) + ", \"faults\": {";
@@ -285,6 +350,8 @@ int main(int argc, char** argv) {
   if (growth > o.max_rss_growth) std::fprintf(stderr, "binpick_soak: resident memory grew %.2f %% after warm-up\n", 100 * growth), rc = 1;
   if (fds_after != fds_before) std::fprintf(stderr, "binpick_soak: %d file descriptors leaked\n", fds_after - fds_before), rc = 1;
   if (threads_after != threads_before) std::fprintf(stderr, "binpick_soak: %d threads leaked\n", threads_after - threads_before), rc = 1;
+  if (threads_warm > 0 && threads_peak_after_warm > threads_warm)
+    std::fprintf(stderr, "binpick_soak: %d more threads during the run than after warm-up\n", threads_peak_after_warm - threads_warm), rc = 1;
   if (wrong_pose_cycles > 0) std::fprintf(stderr, "binpick_soak: %d cycles fused a view with a wrong pose\n", wrong_pose_cycles), rc = 1;
   return rc;
 }
