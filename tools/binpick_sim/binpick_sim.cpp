@@ -182,9 +182,13 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
       rr.phase_ms.push_back(r.takt.processing * 1e3);
     }
     rr.cycle_s.push_back(r.takt.cycle_time);
-    char buf[512];
-    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d\n",
-                  cycle::to_string(strategy), sim::part_type_name(type), run, r.index, cycle::to_string(r.status), int(r.placed),
+    // Why a cycle did not pick: the simulated world's judgement of a failed grip, else the status.
+    const char* cause = r.status == cycle::CycleStatus::grasp_failed ? sim::to_string(cell.gripper->last_status())
+                        : picked                                      ? "-"
+                                                                      : cycle::to_string(r.status);
+    char buf[600];
+    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d\n",
+                  cycle::to_string(strategy), sim::part_type_name(type), run, r.index, cycle::to_string(r.status), cause, int(r.placed),
                   int(r.search), r.views, r.recognized, cycle::to_string(r.path_source),
                   plan_status_id(r.next_plan_status), r.takt.cycle_time, r.takt.detour, r.takt.robot_wait,
                   r.takt.sensing_in_takt(), r.takt.processing, r.fusion_ms, r.estimation_ms, r.planning_ms, cell.remaining());
@@ -301,7 +305,7 @@ int main(int argc, char** argv) {
 
   if (!o.csv.empty()) {
     std::ofstream f(o.csv);
-    f << "strategy,type,run,cycle,status,placed,search,views,recognized,path_source,next_plan_status,cycle_time_s,detour_s,"
+    f << "strategy,type,run,cycle,status,cause,placed,search,views,recognized,path_source,next_plan_status,cycle_time_s,detour_s,"
          "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining\n";
     for (const auto& r : results)
       for (const auto& row : r.csv_rows) f << row;

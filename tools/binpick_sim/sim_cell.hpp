@@ -31,6 +31,7 @@ class SimGripper {
   bool grip(const Isometry3<Scalar>& T_base_flange, cycle::GripperKind kind) {
     const auto outcome = sim::evaluate_pick(*scene_, type_, T_base_flange, kind, opening_, s_);
     ++outcomes_[int(outcome.status)];
+    last_ = outcome.status;
     if (!outcome.success()) return false;
     scene_->remove_part(outcome.part_id);
     return true;
@@ -38,6 +39,8 @@ class SimGripper {
   void release() {}
   /// Picks judged so far per sim::PickStatus.
   const int* outcomes() const { return outcomes_; }
+  /// The judgement of the last grip (the cause column of a failed grasp).
+  sim::PickStatus last_status() const { return last_; }
 
  private:
   sim::Scene<Scalar>* scene_;
@@ -45,6 +48,7 @@ class SimGripper {
   sim::GraspModelSettings<Scalar> s_;
   Scalar opening_ = 0;
   int outcomes_[4] = {0, 0, 0, 0};
+  sim::PickStatus last_ = sim::PickStatus::success;
 };
 
 static_assert(cycle::is_gripper<SimGripper<float>>::value, "SimGripper models Gripper");
