@@ -124,9 +124,10 @@ struct PipelineSettings {
   bool crop_to_bin = true;
   Scalar crop_margin = Scalar(0.015);      ///< [m]
   Scalar crop_height = Scalar(0.05);       ///< [m] above the wall top
-  /// Fused depth more than this below the bin floor is removed too: nothing lies below the floor, such
-  /// points are inter-reflection ghosts behind it (SENSOR_MODEL.md) that a model fitter sinks parts into [m].
-  Scalar crop_floor = Scalar(0.002);
+  /// Fused depth lower than this above the bin floor is removed too: the floor is known geometry whose
+  /// patches between parts (cut off by holes and ghosts) a model fitter takes for thin parts, and depth
+  /// below it is inter-reflection ghosts (SENSOR_MODEL.md); the parts' upper surfaces lie higher [m].
+  Scalar crop_floor = Scalar(0.0015);
   /// Grasp points lower than this above the bin floor are not chosen: fingers or cup would hit the
   /// floor, and no part lying on it is grasped that low (such fits are ghosts or floor pieces) [m].
   Scalar min_grasp_height = Scalar(0.002);
@@ -578,7 +579,7 @@ class PickingPipeline {
         Scalar& z = fused.depth.data()[std::size_t(v) * std::size_t(w) + std::size_t(u)];
         if (!(z > Scalar(0)) || !std::isfinite(z)) continue;
         const Vec3 p = T * Vec3(cam.backproject(Scalar(u), Scalar(v), z)) - s_.bin_center;
-        if (std::abs(p.x()) > hx || std::abs(p.y()) > hy || p.z() + s_.bin_center.z() > z_top || p.z() < -s_.crop_floor) {
+        if (std::abs(p.x()) > hx || std::abs(p.y()) > hy || p.z() + s_.bin_center.z() > z_top || p.z() < s_.crop_floor) {
           z = Scalar(0);
           if (!fused.votes.votes.empty()) fused.votes.votes[std::size_t(v) * std::size_t(w) + std::size_t(u)] = 0;
         }
