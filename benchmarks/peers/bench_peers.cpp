@@ -22,6 +22,7 @@
 //     these voxel sizes). Median absolute depth error against the true depth of view 1 over the pixels
 //     both have, and the coverage of the true depth.
 //
+// Usage: bench_peers [--threads 1,2] [--trials N] [--warmup N] [--quick] [--only knn|projective|fusion]
 // Threads: 1 and 2 where the implementation is threaded (binpick num_threads; Open3D's OpenMP through
 // omp_set_num_threads; OpenCV's cv::setNumThreads); PCL runs single-threaded.
 #include <Eigen/Dense>
@@ -520,11 +521,12 @@ void bench_fusion(const bench::Options& opt) {
       blocks = vbg.GetHashMap().Size();
     }
     const std::int64_t block_count = blocks + blocks / 4 + 16;
+    // Weights are float: Open3D 0.16's uint16 weights (its SLAM fast path) abort in a depth-only Integrate.
     for (const int threads : opt.threads) {
       omp_set_num_threads(threads);
       std::vector<float> out;
-      // Stage times of every call (construct the grid, 4 × block coordinates + integrate, ray cast).
-      std::vector<double> t_make, t_integrate, t_raycast;
+      // Stage times of every call (construct the grid, 4 × (block coordinates + integrate), ray cast).
+      std::vector<double> t_make, t_integrate, t_blocks, t_raycast;
       const auto ms_since = [](std::chrono::steady_clock::time_point t0) {
         return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       };
@@ -536,13 +538,17 @@ void bench_fusion(const bench::Options& opt) {
             t_make.push_back(ms_since(t0));
             t0 = std::chrono::steady_clock::now();
             core::Tensor coords1;
+            double blocks_ms = 0;
             for (std::size_t k = 0; k < images.size(); ++k) {
+              const auto tb = std::chrono::steady_clock::now();
               const core::Tensor coords =
                   vbg.GetUniqueBlockCoordinates(images[k], K, extrinsics[k], 1.0f, depth_max, trunc_mult);
+              blocks_ms += ms_since(tb);
               vbg.Integrate(coords, images[k], K, extrinsics[k], 1.0f, depth_max, trunc_mult);
               if (k == 0) coords1 = coords;
             }
             t_integrate.push_back(ms_since(t0));
+            t_blocks.push_back(blocks_ms);
             t0 = std::chrono::steady_clock::now();
             auto rc = vbg.RayCast(coords1, K, extrinsics[0], W, H, {"depth"}, 1.0f, 0.1f, depth_max, 1.0f, trunc_mult, 16);
             const core::Tensor d = rc.at("depth").Contiguous();
@@ -560,11 +566,12 @@ void bench_fusion(const bench::Options& opt) {
       g_time[key("fusion", impl, threads)] = st.median;
       g_error[key("fusion", impl, threads)] = d.median_abs_mm;
       bench::JsonLine("fusion_depth_error")
-          .str("impl", "open3d").str("variant", "t::geometry::VoxelBlockGrid TSDF integrate x4 + RayCast view 1")
+          .str("impl", "open3d").str("variant", "t::geometry::VoxelBlockGrid TSDF (tsdf and weight float) integrate x4 + RayCast view 1")
           .num("voxel_mm", voxel * 1e3).num("trunc_voxels", trunc_mult).num("weight_threshold", 1)
           .num("range_map_down_factor", 16).num("blocks", double(blocks)).num("width", W).num("height", H).num("views", 4).num("threads", threads)
           .stats(st).num("ms_per_view", st.median / 4).num("construct_ms", median_of(t_make))
-          .num("integrate_4_views_ms", median_of(t_integrate)).num("raycast_ms", median_of(t_raycast))
+          .num("integrate_4_views_ms", median_of(t_integrate))
+          .num("of_which_block_coordinates_ms", median_of(t_blocks)).num("raycast_ms", median_of(t_raycast))
           .num("median_abs_error_mm", d.median_abs_mm).num("mean_abs_error_mm", d.mean_abs_mm)
           .num("coverage", d.coverage).print();
     }
@@ -605,11 +612,22 @@ void print_targets(const bench::Options& opt) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const bench::Options opt = bench::parse_options(argc, argv);
+  // --only knn|projective|fusion runs one part (the harness's own options otherwise).
+  std::string only;
+  std::vector<char*> args{argv[0]};
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--only" && i + 1 < argc) only = argv[++i];
+    else args.push_back(argv[i]);
+  }
+  if (!only.empty() && only != "knn" && only != "projective" && only != "fusion") {
+    std::fprintf(stderr, "--only takes knn, projective or fusion\n");
+    return 2;
+  }
+  const bench::Options opt = bench::parse_options(int(args.size()), args.data());
   open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
-  bench_icp_knn(opt);
-  bench_icp_projective(opt);
-  bench_fusion(opt);
-  print_targets(opt);
+  if (only.empty() || only == "knn") bench_icp_knn(opt);
+  if (only.empty() || only == "projective") bench_icp_projective(opt);
+  if (only.empty() || only == "fusion") bench_fusion(opt);
+  if (only.empty()) print_targets(opt);
   return 0;
 }
