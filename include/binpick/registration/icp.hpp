@@ -18,8 +18,9 @@
 /// eigen-directions whose eigenvalue is below `degeneracy_threshold` × the largest are unobservable
 /// (e.g. sliding on one plane) and the update is confined to the observable subspace, so those
 /// directions keep their initial value; the result then says `degenerate`.
-/// Sums are accumulated in double, one accumulator per thread over fixed blocks, merged in order:
-/// deterministic for a fixed thread count. Numerical failure is a status, never an exception.
+/// Point-to-plane sums are formed in the caller's scalar over blocks of 256 points and added in double
+/// (point-to-point sums in double), one accumulator per thread over fixed ranges of blocks, merged in
+/// order: deterministic for a fixed thread count. Numerical failure is a status, never an exception.
 
 #include <algorithm>
 #include <cmath>
@@ -84,7 +85,10 @@ struct IcpSettings {
   /// Bounds on the total correction (result relative to the initial pose); beyond -> diverged.
   Scalar max_correction_translation = std::numeric_limits<Scalar>::infinity();  ///< [m]
   Scalar max_correction_rotation = std::numeric_limits<Scalar>::infinity();     ///< [rad]
-  int num_threads = 0;  ///< 0 = all cores; the last bits of the result depend on the count (file comment)
+  /// 1 by default: one view's ICP takes milliseconds, and on a machine shared with other work extra
+  /// threads mostly wait (measured: 0 = all cores made a single registration many times slower on a
+  /// busy 2-core machine). 0 = all cores; the last bits of the result depend on the count (file comment).
+  int num_threads = 1;
 };
 
 template <typename Scalar>
@@ -103,18 +107,47 @@ struct IcpResult {
 
 namespace registration_detail {
 
-inline double robust_weight(RobustKernel kernel, double r, double k) {
-  const double a = std::abs(r);
+template <typename T>
+T robust_weight(RobustKernel kernel, T r, T k) {
+  const T a = std::abs(r);
   switch (kernel) {
-    case RobustKernel::huber: return a <= k ? 1.0 : k / a;
+    case RobustKernel::huber: return a <= k ? T(1) : k / a;
     case RobustKernel::tukey: {
-      if (a >= k) return 0.0;
-      const double t = 1.0 - (a / k) * (a / k);
+      if (a >= k) return T(0);
+      const T t = T(1) - (a / k) * (a / k);
       return t * t;
     }
-    default: return 1.0;
+    default: return T(1);
   }
 }
+
+/// Points per block of the point-to-plane sums: each block is summed in the caller's scalar (float
+/// stays accurate over a few hundred terms) and blocks are added in double, so float callers get
+/// float-speed inner loops and double-accurate totals.
+constexpr std::ptrdiff_t kPlaneBlock = 256;
+
+/// The 21 upper-triangle terms of Σ w J Jᵀ (row-major), the 6 of Σ w r J, Σ r² and the count of one
+/// block, in Scalar.
+template <typename Scalar>
+struct PlaneBlockSums {
+  Scalar h[21] = {};
+  Scalar g[6] = {};
+  Scalar sum_sq = Scalar(0);
+  std::size_t count = 0;
+  void add(const Scalar (&J)[6], Scalar w, Scalar r) {
+    // Written out (fixed indices) so the compiler keeps the terms in registers.
+    const Scalar w0 = w * J[0], w1 = w * J[1], w2 = w * J[2], w3 = w * J[3], w4 = w * J[4], w5 = w * J[5];
+    h[0] += w0 * J[0]; h[1] += w0 * J[1]; h[2] += w0 * J[2]; h[3] += w0 * J[3]; h[4] += w0 * J[4]; h[5] += w0 * J[5];
+    h[6] += w1 * J[1]; h[7] += w1 * J[2]; h[8] += w1 * J[3]; h[9] += w1 * J[4]; h[10] += w1 * J[5];
+    h[11] += w2 * J[2]; h[12] += w2 * J[3]; h[13] += w2 * J[4]; h[14] += w2 * J[5];
+    h[15] += w3 * J[3]; h[16] += w3 * J[4]; h[17] += w3 * J[5];
+    h[18] += w4 * J[4]; h[19] += w4 * J[5];
+    h[20] += w5 * J[5];
+    g[0] += w0 * r; g[1] += w1 * r; g[2] += w2 * r; g[3] += w3 * r; g[4] += w4 * r; g[5] += w5 * r;
+    sum_sq += r * r;
+    ++count;
+  }
+};
 
 struct PlaneAccumulator {
   Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
@@ -126,6 +159,16 @@ struct PlaneAccumulator {
     g += o.g;
     sum_sq += o.sum_sq;
     count += o.count;
+  }
+  template <typename Scalar>
+  void add(const PlaneBlockSums<Scalar>& b) {
+    int k = 0;
+    for (int a = 0; a < 6; ++a) {
+      for (int c = a; c < 6; ++c) H(a, c) += double(b.h[k++]);
+      g(a) += double(b.g[a]);
+    }
+    sum_sq += double(b.sum_sq);
+    count += b.count;
   }
 };
 
@@ -257,8 +300,10 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
   bool converged = false;
 
   for (int it = 1; it <= settings.max_iterations; ++it) {
-    const Isometry3<Scalar> Ts = T.cast<Scalar>();
-    rd::parallel_for(n, threads, [&](std::ptrdiff_t i) { moved[std::size_t(i)] = Ts * src[std::size_t(i)]; });
+    // R p + t written out: Transform's operator* goes through homogeneous coordinates.
+    const Eigen::Matrix<Scalar, 3, 3> Rm = T.linear().cast<Scalar>();
+    const Vector3<Scalar> tm = T.translation().cast<Scalar>();
+    rd::parallel_for(n, threads, [&](std::ptrdiff_t i) { moved[std::size_t(i)].noalias() = Rm * src[std::size_t(i)] + tm; });
     association.associate(moved, settings.max_correspondence_distance, threads, partners);
     result.iterations = it;
 
@@ -266,26 +311,38 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
     const Eigen::Vector3d c = T * centroid_src;
     const Eigen::Matrix3d R_ts = T.linear();
     if (plane) {
+      // The hot loop in Scalar (see kPlaneBlock); r_i and J_i as in the file comment, step 3.
+      const Vector3<Scalar> cs = c.cast<Scalar>();
+      const Eigen::Matrix<Scalar, 3, 3> Rs = R_ts.cast<Scalar>();
+      const Scalar max_ds = Scalar(max_d), ks = Scalar(k), cos_ns = Scalar(cos_normal);
+      const bool check_target_normal = association.has_target_normals();
+      const std::ptrdiff_t blocks = (n + rd::kPlaneBlock - 1) / rd::kPlaneBlock;
       const rd::PlaneAccumulator acc = rd::parallel_reduce(
-          n, threads, rd::PlaneAccumulator{},
-          [&](rd::PlaneAccumulator& a, std::ptrdiff_t i) {
-            const std::ptrdiff_t j = partners[std::size_t(i)];
-            if (j < 0) return;
-            const Eigen::Vector3d nrm = association.target_normal(j).template cast<double>();
-            if (nrm.squaredNorm() < 0.5) return;  // unknown normal
-            if (!compatible(R_ts, std::size_t(i), j)) return;
-            const Eigen::Vector3d q = moved[std::size_t(i)].template cast<double>();
-            const double r = nrm.dot(q - association.target_point(j).template cast<double>());
-            if (!(std::abs(r) <= max_d)) return;
-            const double w = rd::robust_weight(settings.kernel, r, k);
-            Eigen::Matrix<double, 6, 1> J;
-            J << (q - c).cross(nrm), nrm;
-            a.H.template selfadjointView<Eigen::Upper>().rankUpdate(J, w);
-            a.g += (w * r) * J;
-            a.sum_sq += r * r;
-            ++a.count;
+          blocks, threads, rd::PlaneAccumulator{},
+          [&](rd::PlaneAccumulator& a, std::ptrdiff_t b) {
+            rd::PlaneBlockSums<Scalar> sums;
+            const std::ptrdiff_t end = std::min(n, (b + 1) * rd::kPlaneBlock);
+            for (std::ptrdiff_t i = b * rd::kPlaneBlock; i < end; ++i) {
+              const std::ptrdiff_t j = partners[std::size_t(i)];
+              if (j < 0) continue;
+              const Vector3<Scalar>& nrm = association.target_normal(j);
+              if (nrm.squaredNorm() < Scalar(0.5)) continue;  // unknown normal
+              if (use_normals) {  // compatible(): same rule, in Scalar
+                const Vector3<Scalar>& ns = src_normals[std::size_t(i)];
+                if (ns.squaredNorm() < Scalar(0.5)) continue;
+                if (check_target_normal && (Rs * ns).dot(nrm) < cos_ns) continue;
+              }
+              const Vector3<Scalar>& q = moved[std::size_t(i)];
+              const Scalar r = nrm.dot(q - association.target_point(j));
+              if (!(std::abs(r) <= max_ds)) continue;
+              const Scalar w = rd::robust_weight(settings.kernel, r, ks);
+              const Vector3<Scalar> m = (q - cs).cross(nrm);
+              const Scalar J[6] = {m.x(), m.y(), m.z(), nrm.x(), nrm.y(), nrm.z()};
+              sums.add(J, w, r);
+            }
+            a.add(sums);
           },
-          [](rd::PlaneAccumulator& total, const rd::PlaneAccumulator& a) { total.merge(a); });
+          [](rd::PlaneAccumulator& total, const rd::PlaneAccumulator& a) { total.merge(a); }, 1);
       result.inliers = acc.count;
       result.rmse = acc.count ? Scalar(std::sqrt(acc.sum_sq / double(acc.count))) : Scalar(0);
       if (acc.count < min_corr) {

@@ -39,7 +39,8 @@ struct OrganizedNormalSettings {
   /// pixel without a normal, so ICP ignores the silhouette band where partners are ambiguous; true
   /// falls back to the one-sided difference (keeps thin structures, at the cost of edge bias).
   bool one_sided_at_edges = false;
-  int num_threads = 0;  ///< 0 = all cores
+  /// 1 by default (see IcpSettings::num_threads: a few ms of work, often on a busy machine); 0 = all cores.
+  int num_threads = 1;
 };
 
 namespace registration_detail {
@@ -128,6 +129,9 @@ PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, i
                                                       double(settings.max_crease_angle));
   const Scalar cc = registration_detail::cos_crease(settings);
   PointCloud<Scalar> out;
+  const std::size_t kept = std::size_t((cloud.width + stride - 1) / stride) * std::size_t((cloud.height + stride - 1) / stride);
+  out.points.reserve(kept);
+  out.normals.reserve(kept);
   for (int v = 0; v < cloud.height; v += stride)
     for (int u = 0; u < cloud.width; u += stride) {
       if (!cloud.valid(u, v)) continue;
@@ -142,7 +146,7 @@ struct KnnNormalSettings {
   int k = 10;                                         ///< neighbours per PCA (the point included), >= 3
   Vector3<Scalar> viewpoint = Vector3<Scalar>::Zero();  ///< normals point toward it [m]
   KdTreeSettings<Scalar> kdtree{};
-  int num_threads = 0;  ///< 0 = all cores
+  int num_threads = 1;  ///< 1 by default (see IcpSettings::num_threads); 0 = all cores
 };
 
 /// One normal per point of `points` (zero for non-finite points and where the neighbours are

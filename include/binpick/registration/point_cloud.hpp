@@ -54,15 +54,23 @@ OrganizedCloud<Scalar> backproject_organized(const DepthImageView<Scalar>& depth
   cloud.width = (depth.width() + stride - 1) / stride;
   cloud.height = (depth.height() + stride - 1) / stride;
   cloud.points.assign(std::size_t(cloud.width) * std::size_t(cloud.height), Vector3<Scalar>::Zero());
-  for (int v = 0; v < cloud.height; ++v)
-    for (int u = 0; u < cloud.width; ++u) {
-      const Scalar z = depth.depth(u * stride, v * stride);
-      if (z > Scalar(0)) {
-        const Vector3<Scalar> p =
-            camera.backproject(Scalar(u * stride), Scalar(v * stride), z).template cast<Scalar>();
-        if (p.allFinite()) cloud.points[cloud.index(u, v)] = p;
+  // The encoding switch is taken once, not per pixel.
+  depth.dispatch([&](auto tag) {
+    using T = decltype(tag);
+    const Scalar scale = depth.metres_per_unit();
+    for (int v = 0; v < cloud.height; ++v) {
+      const T* row = depth.template row<T>(v * stride);
+      Vector3<Scalar>* out = cloud.points.data() + cloud.index(0, v);
+      for (int u = 0; u < cloud.width; ++u) {
+        const Scalar z = DepthImageView<Scalar>::decode(row[std::size_t(u) * std::size_t(stride)], scale);
+        if (z > Scalar(0)) {
+          const Vector3<Scalar> p =
+              camera.backproject(Scalar(u * stride), Scalar(v * stride), z).template cast<Scalar>();
+          if (p.allFinite()) out[u] = p;
+        }
       }
     }
+  });
   return cloud;
 }
 

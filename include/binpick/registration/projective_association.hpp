@@ -63,7 +63,18 @@ class ProjectiveAssociation {
       const Vector3<Scalar>& q = queries[std::size_t(i)];
       const auto px = camera_.project(q);
       if (!px) return;
-      const int u0 = int(std::lround(px->x())), v0 = int(std::lround(px->y()));
+      // Nearest pixel; project() kept (u, v) within half a pixel of the image, the clamps below
+      // absorb rounding at its border. floor(x + 0.5) inline: lround is a library call.
+      const int u0 = int(std::floor(px->x() + Scalar(0.5))), v0 = int(std::floor(px->y() + Scalar(0.5)));
+      if (r == 0) {  // the default: one pixel, no window loop
+        if (u0 < 0 || v0 < 0 || u0 >= w || v0 >= h) return;
+        const std::size_t id = target_.index(u0, v0);
+        const Vector3<Scalar>& p = target_.points[id];
+        if (!(p.z() > Scalar(0))) return;
+        if (need_normal && target_.normals[id].squaredNorm() == Scalar(0)) return;
+        if ((p - q).squaredNorm() <= max_d2) partners[std::size_t(i)] = std::ptrdiff_t(id);
+        return;
+      }
       Scalar best = max_d2;
       std::ptrdiff_t best_id = -1;
       for (int v = std::max(0, v0 - r); v <= std::min(h - 1, v0 + r); ++v)

@@ -37,11 +37,13 @@ void parallel_for(std::ptrdiff_t n, int threads, F&& f) {
 }
 
 /// Deterministic reduction: thread t accumulates block [n t / T, n (t+1) / T) into its own copy of
-/// `zero` via f(acc, i); the copies are then merged in thread order with merge(total, acc).
+/// `zero` via f(acc, i); the copies are then merged in thread order with merge(total, acc). Ranges of
+/// `min_parallel` items or fewer run on the calling thread.
 template <typename Acc, typename F, typename Merge>
-Acc parallel_reduce(std::ptrdiff_t n, int threads, const Acc& zero, F&& f, Merge&& merge) {
+Acc parallel_reduce(std::ptrdiff_t n, int threads, const Acc& zero, F&& f, Merge&& merge,
+                    std::ptrdiff_t min_parallel = 1024) {
 #ifdef _OPENMP
-  if (threads > 1 && n > 1024) {
+  if (threads > 1 && n > min_parallel) {
     std::vector<Acc> parts(std::size_t(threads), zero);
     int used = 1;
 #pragma omp parallel num_threads(threads)
