@@ -143,10 +143,11 @@ std::size_t reproject_rows(const DepthImageView<Scalar>& source, const RayTable<
         const V pv = (z * ay + my) * inv;
         const auto ok = (z > vzero) & in_front & (pu >= vmhalf) & (pu < vumax) & (pv >= vmhalf) & (pv < vvmax);
         // Truncation of (p + 0.5) rounds to the nearest pixel for p >= -0.5; clamped first so the
-        // conversion is defined for any value.
+        // conversion is defined for any value (NaN fails `>= 0` and becomes 0: both index lanes are
+        // computed before the select, and an INT_MIN lane would overflow in iv * tw).
         V fu = pu + vhalf, fv = pv + vhalf;
-        fu = P::select(fu < vzero, vzero, P::select(fu > vtw1, vtw1, fu));
-        fv = P::select(fv < vzero, vzero, P::select(fv > vth1, vth1, fv));
+        fu = P::select(fu >= vzero, P::select(fu > vtw1, vtw1, fu), vzero);
+        fv = P::select(fv >= vzero, P::select(fv > vth1, vth1, fv), vzero);
         const Mask iu = __builtin_convertvector(fu, Mask), iv = __builtin_convertvector(fv, Mask);
         const Mask idx = ok ? Mask(iv * Index(tw) + iu) : Mask(iu * Index(0) + spare);
         std::memcpy(&index[std::size_t(u)], &idx, sizeof idx);
