@@ -32,6 +32,7 @@ class SimGripper {
     const auto outcome = sim::evaluate_pick(*scene_, type_, T_base_flange, kind, opening_, s_);
     ++outcomes_[int(outcome.status)];
     last_ = outcome.status;
+    last_outcome_ = outcome;
     if (!outcome.success()) return false;
     scene_->remove_part(outcome.part_id);
     return true;
@@ -41,6 +42,8 @@ class SimGripper {
   const int* outcomes() const { return outcomes_; }
   /// The judgement of the last grip (the cause column of a failed grasp).
   sim::PickStatus last_status() const { return last_; }
+  /// The whole judgement of the last grip (errors to the nearest true grasp, for diagnostics).
+  const sim::PickOutcome<Scalar>& last_outcome() const { return last_outcome_; }
 
  private:
   sim::Scene<Scalar>* scene_;
@@ -49,6 +52,7 @@ class SimGripper {
   Scalar opening_ = 0;
   int outcomes_[4] = {0, 0, 0, 0};
   sim::PickStatus last_ = sim::PickStatus::success;
+  sim::PickOutcome<Scalar> last_outcome_;
 };
 
 static_assert(cycle::is_gripper<SimGripper<float>>::value, "SimGripper models Gripper");

@@ -36,6 +36,9 @@ struct EstimatorInput {
   DepthImageView<Scalar> depth;          ///< fused depth [m], 0 = no measurement
   const std::uint8_t* votes = nullptr;   ///< optional votes per pixel (row-major, depth's size), or null
   const Camera* camera = nullptr;        ///< intrinsics of `depth`; required
+  /// The world's up direction in the camera frame (unit), known from the robot's kinematics and the
+  /// hand-eye calibration; zero when unknown. Estimators prefer grasps approaching from above.
+  Vector3<Scalar> up_camera = Vector3<Scalar>::Zero();
 };
 
 /// One recognized object.
@@ -46,6 +49,10 @@ struct RecognizedObject {
   Scalar confidence_percent = 0;                                   ///< in [0, 100], weights Eq. 1
   Isometry3<Scalar> T_camera_grasp = Isometry3<Scalar>::Identity();   ///< best grasp: z = approach, x = closing
   GripperKind gripper = GripperKind::two_finger;
+  /// False when the estimator found the gripper at T_camera_grasp in conflict with the measured
+  /// scene (it returns the object anyway): such grasps are tried last. Estimators that do not check
+  /// leave it true.
+  bool grasp_clear = true;
 };
 
 enum class EstimationStatus { ok, no_objects, invalid_input };

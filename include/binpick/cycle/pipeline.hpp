@@ -544,6 +544,7 @@ class PickingPipeline {
       in.depth = fused.depth.view();
       in.votes = fused.votes.votes.empty() ? nullptr : fused.votes.votes.data();
       in.camera = &sensor_->camera();
+      in.up_camera = fused.T_base_target.linear().transpose() * Vec3::UnitZ();  // kinematics, not the scene
       EstimationResult<Scalar> est = estimator_->estimate(in);
       out.estimation_s = seconds_since(t0);
       if (est.status == EstimationStatus::invalid_input) {
@@ -596,10 +597,11 @@ class PickingPipeline {
       confidences.push_back(std::max(Scalar(0), o.confidence_percent));
     }
     out.objects_base = positions;
-    // The most confident object whose approach is within the tilt limit (objects come sorted), first
-    // away from the grips that failed since the last success, then anywhere.
+    // The most confident object whose approach is within the tilt limit (objects come sorted): first
+    // those whose grasp the estimator found clear and away from the grips that failed since the last
+    // success, then clear ones anywhere, then any.
     std::size_t chosen = active_vision::no_grasped_object;
-    for (int pass = 0; pass < 2 && chosen == active_vision::no_grasped_object; ++pass)
+    for (int pass = 0; pass < 3 && chosen == active_vision::no_grasped_object; ++pass)
       for (std::size_t k = 0; k < est.objects.size(); ++k) {
         const Pose T = T_base_ref * est.objects[k].T_camera_grasp;
         if (!detail::is_rigid_finite(T)) continue;
@@ -608,6 +610,7 @@ class PickingPipeline {
           return (f - T.translation()).norm() < s_.retry_distance;
         });
         if (pass == 0 && near_failed) continue;
+        if (pass < 2 && !est.objects[k].grasp_clear) continue;
         const Scalar down = -T.linear().col(2).z();
         if (down >= std::cos(s_.max_approach_tilt)) {
           chosen = k;

@@ -54,6 +54,12 @@ struct PickOutcome {
   int part_id = -1;     ///< its stable id (Scene::remove_part takes it)
   Scalar position_error = std::numeric_limits<Scalar>::infinity();  ///< to the matched true grasp [m]
   Scalar angle_error = std::numeric_limits<Scalar>::infinity();     ///< approach axis error [rad]
+  Scalar closing_error = 0;  ///< jaw closing axis error (two-finger) [rad]
+  /// When no grasp matched: the errors to the nearest true grasp of any part of the type regardless of
+  /// the tolerances (diagnostics of why a pose missed; infinite when the bin holds none nearby).
+  Scalar nearest_position_error = std::numeric_limits<Scalar>::infinity();  ///< [m]
+  Scalar nearest_angle_error = std::numeric_limits<Scalar>::infinity();     ///< approach [rad]
+  Scalar nearest_closing_error = std::numeric_limits<Scalar>::infinity();   ///< closing (two-finger) [rad]
   bool success() const { return status == PickStatus::success; }
 };
 
@@ -68,7 +74,7 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
   const auto syms = detail::symmetry_rotations<Scalar>(detail::part_symmetry(type), 360);
   const Vector3<Scalar> a_est = T_base_grasp.linear().col(2), x_est = T_base_grasp.linear().col(0);
   // 1. The nearest matching true grasp.
-  Scalar best = std::numeric_limits<Scalar>::infinity();
+  Scalar best = std::numeric_limits<Scalar>::infinity(), nearest = best;
   for (std::size_t i = 0; i < scene.parts().size(); ++i) {
     const auto& part = scene.parts()[i];
     if (part.type != type) continue;
@@ -81,11 +87,18 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
         const Isometry3<Scalar> T_true = part.T_base_part * T_sym * g.T_part_grasp;
         const Scalar dp = (T_true.translation() - T_base_grasp.translation()).norm();
         const Scalar da = std::acos(std::clamp(T_true.linear().col(2).dot(a_est), Scalar(-1), Scalar(1)));
-        if (dp > settings.position_tolerance || da > settings.angle_tolerance) continue;
-        if (kind == cycle::GripperKind::two_finger) {
-          const Scalar dx = std::acos(std::clamp(std::abs(T_true.linear().col(0).dot(x_est)), Scalar(0), Scalar(1)));
-          if (dx > settings.angle_tolerance) continue;  // jaws are symmetric: x and −x close alike
+        // Jaws are symmetric: x and −x close alike.
+        const Scalar dx = kind == cycle::GripperKind::two_finger
+                              ? std::acos(std::clamp(std::abs(T_true.linear().col(0).dot(x_est)), Scalar(0), Scalar(1)))
+                              : Scalar(0);
+        const Scalar near_cost = dp / settings.position_tolerance + (da + dx) / settings.angle_tolerance;
+        if (near_cost < nearest) {
+          nearest = near_cost;
+          out.nearest_position_error = dp;
+          out.nearest_angle_error = da;
+          out.nearest_closing_error = dx;
         }
+        if (dp > settings.position_tolerance || da > settings.angle_tolerance || dx > settings.angle_tolerance) continue;
         const Scalar cost = dp / settings.position_tolerance + da / settings.angle_tolerance;
         if (cost < best) {
           best = cost;
@@ -93,6 +106,7 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
           out.part_id = part.id;
           out.position_error = dp;
           out.angle_error = da;
+          out.closing_error = dx;
         }
       }
     }

@@ -28,9 +28,11 @@
 ///     visible, in [0, 100];
 ///  5. keep: hypotheses above min_confidence, greedily by confidence, whose supported cells overlap
 ///     no kept one by more than max_overlap;
-///  6. grasp: of the grasps registered on the model, those approaching along the line of sight within
-///     max_approach_angle whose gripper shape (detail::gripper_samples) stays in measured free space;
-///     the one most aligned with the line of sight, else (flagged unreachable) the most aligned one.
+///  6. grasp: of the grasps registered on the model, repeated under every symmetry of the part, those
+///     approaching within max_approach_angle of the line of sight whose gripper shape
+///     (detail::gripper_samples) stays in measured free space; the one nearest to straight down (the
+///     input's up direction; the line of sight when unknown), else (flagged unreachable, grasp_clear
+///     false) the best aligned one.
 
 #include <algorithm>
 #include <chrono>
@@ -89,6 +91,7 @@ struct ReferenceEstimatorSettings {
   Scalar max_overlap = Scalar(0.3);            ///< share of a hypothesis' supported cells another kept one may own
   Scalar max_approach_angle = Scalar(1.05);    ///< grasp approach vs line of sight [rad] (60°)
   Scalar collision_margin = Scalar(0.001);     ///< gripper samples this far behind a measured surface collide [m]
+  int symmetry_steps = 36;                     ///< a continuous symmetry offers grasps every 2π / this [-]
   GripperGeometry<Scalar> gripper;             ///< shapes checked against the depth
   int num_threads = 1;                         ///< candidates in parallel (0 = all cores); same output for any count
 };
@@ -182,6 +185,7 @@ class ReferenceEstimator {
     require(std::isfinite(s.max_approach_angle) && s.max_approach_angle >= 0, "max_approach_angle", "must be >= 0");
     require(std::isfinite(s.collision_margin) && s.collision_margin >= 0, "collision_margin", "must be >= 0");
     require(s.num_threads >= 0, "num_threads", "must be >= 0 (0 = all cores)");
+    require(s.symmetry_steps >= 1, "symmetry_steps", "must be >= 1");
     for (const auto& m : models) {
       require(!m.mesh.triangles.empty(), "models", "a model has no mesh");
       models_.push_back(detail::PreparedModel<Scalar>::make(
@@ -246,6 +250,7 @@ class ReferenceEstimator {
       obj.gripper = pm.model.gripper;
       RecognitionDetail<Scalar> d;
       choose_grasp(input, cam, pm, h.T_camera_object, obj.T_camera_grasp, d);
+      obj.grasp_clear = d.grasp_reachable;
       d.visible_cells = h.visible;
       d.supported_share = h.visible ? Scalar(h.supported) / Scalar(h.visible) : Scalar(0);
       d.empty_share = h.visible ? Scalar(h.empty) / Scalar(h.visible) : Scalar(0);
@@ -667,30 +672,59 @@ class ReferenceEstimator {
     h.confidence = std::clamp(conf, Scalar(0), Scalar(100));
   }
 
-  // 6. The grasp: along the line of sight, gripper in measured free space.
+  // 6. The grasp: the registered grasps under every symmetry of the part (a symmetric part offers
+  // each of them all around: a screw can be taken across its shank from any side), within
+  // max_approach_angle of the line of sight (the side the sensor sees), nearest to straight down
+  // (input.up_camera; the line of sight when unknown), gripper in measured free space.
   void choose_grasp(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
                     const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_camera_object,
                     Isometry3<Scalar>& T_camera_grasp, RecognitionDetail<Scalar>& d) const {
     const auto& grasps = pm.model.grasps;
-    int best = -1, best_free = -1;
-    Scalar best_angle = Scalar(10), best_free_angle = Scalar(10);
-    for (std::size_t k = 0; k < grasps.size(); ++k) {
-      const Isometry3<Scalar> T = T_camera_object * grasps[k].T_part_grasp;
-      const Vec3 sight = T.translation().normalized();
-      const Scalar angle = std::acos(std::clamp(T.linear().col(2).dot(sight), Scalar(-1), Scalar(1)));
-      if (angle < best_angle) {
-        best_angle = angle;
-        best = int(k);
+    const std::vector<Mat3> syms = detail::symmetry_rotations<Scalar>(pm.symmetry, s_.symmetry_steps);
+    const Scalar up_norm = input.up_camera.norm();
+    const bool have_up = input.up_camera.allFinite() && up_norm > Scalar(0.5);
+    const Vec3 down = have_up ? Vec3(-input.up_camera / up_norm) : Vec3::Zero();
+    struct Option {
+      Scalar key;       // angle to the preferred approach [rad]
+      bool in_sight;    // within max_approach_angle of the line of sight
+      std::size_t sym, grasp;
+    };
+    std::vector<Option> options;
+    options.reserve(syms.size() * grasps.size());
+    auto pose_of = [&](std::size_t sym, std::size_t k) {
+      Isometry3<Scalar> T_sym = Isometry3<Scalar>::Identity();
+      T_sym.linear() = syms[sym];  // symmetries fix the part origin (estimator_symmetry.hpp)
+      return Isometry3<Scalar>(T_camera_object * T_sym * grasps[k].T_part_grasp);
+    };
+    for (std::size_t si = 0; si < syms.size(); ++si)
+      for (std::size_t k = 0; k < grasps.size(); ++k) {
+        const Isometry3<Scalar> T = pose_of(si, k);
+        const Vec3 sight = T.translation().normalized();
+        const Vec3 a = T.linear().col(2);
+        const Scalar sight_angle = std::acos(std::clamp(a.dot(sight), Scalar(-1), Scalar(1)));
+        const Scalar key = have_up ? std::acos(std::clamp(a.dot(down), Scalar(-1), Scalar(1))) : sight_angle;
+        options.push_back({key, sight_angle <= s_.max_approach_angle, si, k});
       }
-      if (angle > s_.max_approach_angle || angle >= best_free_angle) continue;
-      if (gripper_collides(input, cam, T, pm.model.gripper, grasps[k].opening)) continue;
-      best_free_angle = angle;
-      best_free = int(k);
+    if (options.empty()) {
+      d.grasp_reachable = false;
+      d.grasp_index = -1;
+      T_camera_grasp = T_camera_object;
+      return;
     }
-    d.grasp_reachable = best_free >= 0;
-    d.grasp_index = best_free >= 0 ? best_free : best;
-    T_camera_grasp = d.grasp_index >= 0 ? Isometry3<Scalar>(T_camera_object * grasps[std::size_t(d.grasp_index)].T_part_grasp)
-                                        : T_camera_object;
+    std::stable_sort(options.begin(), options.end(), [](const Option& x, const Option& y) {
+      return x.in_sight != y.in_sight ? x.in_sight : x.key < y.key;
+    });
+    const Option* chosen = nullptr;
+    for (const Option& o : options) {
+      if (!o.in_sight) break;
+      if (gripper_collides(input, cam, pose_of(o.sym, o.grasp), pm.model.gripper, grasps[o.grasp].opening)) continue;
+      chosen = &o;
+      break;
+    }
+    d.grasp_reachable = chosen != nullptr;
+    if (!chosen) chosen = &options.front();  // flagged: the best aligned one
+    d.grasp_index = int(chosen->grasp);
+    T_camera_grasp = pose_of(chosen->sym, chosen->grasp);
   }
 
   bool gripper_collides(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
