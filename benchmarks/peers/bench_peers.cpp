@@ -47,6 +47,7 @@
 #include <pcl/point_types.h>
 #include <pcl/registration/icp.h>
 
+#include "analytic_bin.hpp"
 #include "bench.hpp"
 #include "binpick/fusion/fuse.hpp"
 #include "binpick/registration.hpp"
@@ -65,64 +66,21 @@ std::string key(const std::string& c, const std::string& impl, int threads) {
   return c + "/" + impl + "/" + std::to_string(threads);
 }
 
-// ---- the analytic scene of the registration benchmark ----------------------------------------------
-struct TiltedBox {
-  Eigen::Isometry3d T_scene_box;
-  Eigen::Vector3d half;
+// ---- the two views of the analytic bin (benchmarks/common/analytic_bin.hpp) both ICP cases register --
+struct ViewPair {
+  static constexpr int W = 640, H = 480;
+  PinholeCamera<float> cam{0.9f * W, 0.9f * W, 0.5f * (W - 1), 0.5f * (H - 1), W, H};
+  Eigen::Isometry3d T_true = true_pose();
+  DepthImage<float> target_depth = bench::render_analytic_bin(cam, Eigen::Isometry3d::Identity());
+  DepthImage<float> source_depth = bench::render_analytic_bin(cam, T_true);
+
+  static Eigen::Isometry3d true_pose() {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::AngleAxisd(0.03, Eigen::Vector3d(1, 2, 0.5).normalized()).toRotationMatrix();
+    T.translation() = Eigen::Vector3d(0.008, -0.004, 0.003);
+    return T;
+  }
 };
-
-double intersect(const std::vector<TiltedBox>& boxes, const Eigen::Vector3d& n_floor, const Eigen::Vector3d& o,
-                 const Eigen::Vector3d& d) {
-  double best = std::numeric_limits<double>::infinity();
-  const double dn = d.dot(n_floor);
-  if (std::abs(dn) > 1e-12) {
-    const double t = (Eigen::Vector3d(0, 0, 0.32) - o).dot(n_floor) / dn;
-    if (t > 0) best = t;
-  }
-  for (const TiltedBox& b : boxes) {
-    const Eigen::Isometry3d Ti = b.T_scene_box.inverse();
-    const Eigen::Vector3d ob = Ti * o, db = Ti.linear() * d;
-    double t0 = -1e300, t1 = 1e300;
-    bool hit = true;
-    for (int a = 0; a < 3 && hit; ++a) {
-      if (std::abs(db[a]) < 1e-15) {
-        hit = std::abs(ob[a]) <= b.half[a];
-        continue;
-      }
-      double ta = (-b.half[a] - ob[a]) / db[a], tb = (b.half[a] - ob[a]) / db[a];
-      if (ta > tb) std::swap(ta, tb);
-      t0 = std::max(t0, ta);
-      t1 = std::min(t1, tb);
-      hit = t0 <= t1;
-    }
-    if (hit && t0 > 0 && t0 < best) best = t0;
-  }
-  return best;
-}
-
-DepthImage<float> render_bin(const PinholeCamera<float>& cam, const Eigen::Isometry3d& T_scene_camera) {
-  std::vector<TiltedBox> boxes;
-  for (int i = 0; i < 6; ++i) {
-    TiltedBox b;
-    const double a = 2 * M_PI * i / 6;
-    b.T_scene_box = Eigen::Isometry3d::Identity();
-    b.T_scene_box.linear() = (Eigen::AngleAxisd(a * 1.7, Eigen::Vector3d::UnitZ()) *
-                              Eigen::AngleAxisd(0.4, Eigen::Vector3d(std::cos(a), std::sin(a), 0)))
-                                 .toRotationMatrix();
-    b.T_scene_box.translation() = Eigen::Vector3d(0.07 * std::cos(a), 0.05 * std::sin(a), 0.3);
-    b.half = Eigen::Vector3d(0.03, 0.02, 0.015);
-    boxes.push_back(b);
-  }
-  const Eigen::Vector3d n_floor = Eigen::AngleAxisd(0.17, Eigen::Vector3d::UnitX()) * Eigen::Vector3d(0, 0, -1);
-  DepthImage<float> img(cam.width(), cam.height());
-  for (int v = 0; v < cam.height(); ++v)
-    for (int u = 0; u < cam.width(); ++u) {
-      const Eigen::Vector3d dc((u - double(cam.cx())) / double(cam.fx()), (v - double(cam.cy())) / double(cam.fy()), 1);
-      const double t = intersect(boxes, n_floor, T_scene_camera.translation(), T_scene_camera.linear() * dc);
-      if (t < 2) img.at(u, v) = float(t);
-    }
-  return img;
-}
 
 // ---- pose error and the common ICP evaluator --------------------------------------------------------
 struct PoseError {
@@ -193,12 +151,10 @@ PointCloud<float> with_normals(const DepthImage<float>& depth, const PinholeCame
 
 // ---- 1. kNN point-to-plane ICP ----------------------------------------------------------------------
 void bench_icp_knn(const bench::Options& opt) {
-  const int W = 640, H = 480;
-  const float f = 0.9f * W;
-  const PinholeCamera<float> cam(f, f, 0.5f * (W - 1), 0.5f * (H - 1), W, H);
-  Eigen::Isometry3d T_true = Eigen::Isometry3d::Identity();
-  T_true.linear() = Eigen::AngleAxisd(0.03, Eigen::Vector3d(1, 2, 0.5).normalized()).toRotationMatrix();
-  T_true.translation() = Eigen::Vector3d(0.008, -0.004, 0.003);
+  const ViewPair vp;
+  const int W = vp.W, H = vp.H;
+  const PinholeCamera<float>& cam = vp.cam;
+  const Eigen::Isometry3d& T_true = vp.T_true;
   Eigen::Isometry3d P = Eigen::Isometry3d::Identity();  // 3 mm, 1°
   P.linear() = Eigen::AngleAxisd(1.0 * kDeg, Eigen::Vector3d(-1, 1, 0.3).normalized()).toRotationMatrix();
   P.translation() = Eigen::Vector3d(1, 2, -2).normalized() * 0.003;
@@ -206,8 +162,8 @@ void bench_icp_knn(const bench::Options& opt) {
   const float max_d = 0.01f;
   const int max_it = 30;
 
-  const DepthImage<float> target_depth = render_bin(cam, Eigen::Isometry3d::Identity());
-  const DepthImage<float> source_depth = render_bin(cam, T_true);
+  const DepthImage<float>& target_depth = vp.target_depth;
+  const DepthImage<float>& source_depth = vp.source_depth;
   const PointCloud<float> target = with_normals(target_depth, cam), source = with_normals(source_depth, cam);
   const KnnAssociation<float> yardstick(target);
   // At the true pose the residual is not zero (source and target sample the surfaces at different
@@ -334,18 +290,16 @@ void bench_icp_knn(const bench::Options& opt) {
 
 // ---- 2. projective ICP on depth images --------------------------------------------------------------
 void bench_icp_projective(const bench::Options& opt) {
-  const int W = 640, H = 480;
-  const float f = 0.9f * W;
-  const PinholeCamera<float> cam(f, f, 0.5f * (W - 1), 0.5f * (H - 1), W, H);
-  Eigen::Isometry3d T_true = Eigen::Isometry3d::Identity();
-  T_true.linear() = Eigen::AngleAxisd(0.03, Eigen::Vector3d(1, 2, 0.5).normalized()).toRotationMatrix();
-  T_true.translation() = Eigen::Vector3d(0.008, -0.004, 0.003);
+  const ViewPair vp;
+  const int W = vp.W, H = vp.H;
+  const PinholeCamera<float>& cam = vp.cam;
+  const Eigen::Isometry3d& T_true = vp.T_true;
   Eigen::Isometry3d P = Eigen::Isometry3d::Identity();
   P.linear() = Eigen::AngleAxisd(1.0 * kDeg, Eigen::Vector3d(-1, 1, 0.3).normalized()).toRotationMatrix();
   P.translation() = Eigen::Vector3d(1, 2, -2).normalized() * 0.003;
   const Eigen::Isometry3d init = P * T_true;
-  const DepthImage<float> target_depth = render_bin(cam, Eigen::Isometry3d::Identity());
-  const DepthImage<float> source_depth = render_bin(cam, T_true);
+  const DepthImage<float>& target_depth = vp.target_depth;
+  const DepthImage<float>& source_depth = vp.source_depth;
   const PointCloud<float> source = with_normals(source_depth, cam), target = with_normals(target_depth, cam);
   const KnnAssociation<float> yardstick(target);
   const float max_d = 0.01f;
@@ -430,17 +384,6 @@ DepthScore depth_score(const float* depth, const DepthImage<float>& truth) {
   return s;
 }
 
-Isometry3f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& target) {
-  const Eigen::Vector3f z = (target - eye).normalized();
-  const Eigen::Vector3f x = z.cross(Eigen::Vector3f::UnitY()).normalized();
-  Isometry3f T = Isometry3f::Identity();
-  T.linear().col(0) = x;
-  T.linear().col(1) = z.cross(x);
-  T.linear().col(2) = z;
-  T.translation() = eye;
-  return T;
-}
-
 void bench_fusion(const bench::Options& opt) {
   namespace core = open3d::core;
   namespace tg = open3d::t::geometry;
@@ -458,10 +401,11 @@ void bench_fusion(const bench::Options& opt) {
   const auto scene = sim::Scene<float>::generate(sc, 1);
   const auto geo = sim::SceneGeometry<float>::build(scene, ss.errors.bin_material, ss.errors.table_material);
   // View 1 above the bin centre, views 2..4 on a 3 cm circle around it (a short sensing arc).
-  std::vector<Isometry3f> poses{look_at(Eigen::Vector3f(0, 0, 0.3f), Eigen::Vector3f(0, 0, 0))};
+  std::vector<Isometry3f> poses{camera_looking_at<float>(Eigen::Vector3f(0, 0, 0.3f), Eigen::Vector3f(0, 0, 0), Eigen::Vector3f::UnitY())};
   for (int k = 0; k < 3; ++k) {
     const float a = float(2 * M_PI / 3 * k);
-    poses.push_back(look_at(Eigen::Vector3f(0.03f * std::cos(a), 0.03f * std::sin(a), 0.3f), Eigen::Vector3f(0, 0, 0)));
+    poses.push_back(camera_looking_at<float>(Eigen::Vector3f(0.03f * std::cos(a), 0.03f * std::sin(a), 0.3f),
+                                             Eigen::Vector3f(0, 0, 0), Eigen::Vector3f::UnitY()));
   }
   std::vector<sim::StereoFrame<float>> frames;
   for (std::size_t k = 0; k < poses.size(); ++k) frames.push_back(sensor.render(geo, poses[k], k));
