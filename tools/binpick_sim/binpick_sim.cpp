@@ -199,9 +199,10 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
       diag = d;
     }
     const bool grasped = r.status == cycle::CycleStatus::picked || r.status == cycle::CycleStatus::grasp_failed;
-    char tilt[32] = "";
+    char tilt[40] = ",";
     if (grasped)
-      std::snprintf(tilt, sizeof tilt, "%.1f", std::acos(std::clamp(-double(r.T_base_grasp.linear()(2, 2)), -1.0, 1.0)) * 180 / M_PI);
+      std::snprintf(tilt, sizeof tilt, "%.1f,%d", std::acos(std::clamp(-double(r.T_base_grasp.linear()(2, 2)), -1.0, 1.0)) * 180 / M_PI,
+                    int(r.grasp_clear));
     char buf[800];
     std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d%s,%s\n",
                   cycle::to_string(strategy), sim::part_type_name(type), run, r.index, cycle::to_string(r.status), cause, int(r.placed),
@@ -323,7 +324,7 @@ int main(int argc, char** argv) {
   if (!o.csv.empty()) {
     std::ofstream f(o.csv);
     f << "strategy,type,run,cycle,status,cause,placed,search,views,recognized,path_source,next_plan_status,cycle_time_s,detour_s,"
-         "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining,grasp_error_mm,approach_error_deg,closing_error_deg,grasp_tilt_deg\n";
+         "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining,grasp_error_mm,approach_error_deg,closing_error_deg,grasp_tilt_deg,grasp_clear\n";
     for (const auto& r : results)
       for (const auto& row : r.csv_rows) f << row;
   }

@@ -231,6 +231,7 @@ struct CycleResult {
   std::vector<Isometry3<Scalar>> T_base_captures_read;      ///< camera poses from the kinematics reads
   std::vector<Vector3<Scalar>> objects_base;                ///< recognized object positions
   Isometry3<Scalar> T_base_grasp = Isometry3<Scalar>::Identity();  ///< chosen grasp (when any)
+  bool grasp_clear = false;      ///< the estimator found the chosen grasp clear of the measured scene
   // With settings.keep_images:
   DepthImage<Scalar> fused_depth;                           ///< fused depth of view 1 [m]
   std::vector<std::uint8_t> votes;                          ///< votes per pixel, row-major
@@ -390,6 +391,7 @@ class PickingPipeline {
     bool has_grasp = false;
     Pose T_base_grasp = Pose::Identity();
     GripperKind gripper = GripperKind::two_finger;
+    bool grasp_clear = false;
     Plan next;
     active_vision::SensingPathStatus plan_status = active_vision::SensingPathStatus::ok;
     std::vector<Vec3> objects_base;
@@ -616,6 +618,7 @@ class PickingPipeline {
           chosen = k;
           out.T_base_grasp = T;
           out.gripper = est.objects[k].gripper;
+          out.grasp_clear = est.objects[k].grasp_clear;
           break;
         }
       }
@@ -673,7 +676,10 @@ class PickingPipeline {
     r.recognized = p.recognized;
     r.objects_base = p.objects_base;
     r.next_plan_status = p.plan_status;
-    if (p.has_grasp) r.T_base_grasp = p.T_base_grasp;
+    if (p.has_grasp) {
+      r.T_base_grasp = p.T_base_grasp;
+      r.grasp_clear = p.grasp_clear;
+    }
     if (s_.keep_images) {
       r.fused_depth = std::move(p.fused);
       r.votes = std::move(p.votes);
