@@ -222,7 +222,7 @@ struct StubSensor {
   float fill = 0.5f;
   bool throw_on_trigger = false;
   Camera cam{40, 40, 15.5f, 11.5f, 32, 24};
-  std::vector<cycle::DepthFrame<float>> memory;
+  std::vector<cycle::DepthFrame<float>> memory{};  // {}: aggregate-initialized with the clock alone
   const Camera& camera() const { return cam; }
   float accuracy() const { return 0.001f; }
   double trigger() {
