@@ -18,7 +18,8 @@
 /// eigen-directions whose eigenvalue is below `degeneracy_threshold` × the largest are unobservable
 /// (e.g. sliding on one plane) and the update is confined to the observable subspace, so those
 /// directions keep their initial value; the result then says `degenerate`.
-/// Point-to-plane sums are formed in the caller's scalar over blocks of 256 points and added in double
+/// Point-to-plane sums are formed in the caller's scalar over blocks of 256 points (kept pairs gathered
+/// into structure-of-arrays rows, products summed lane-wise in SIMD packs) and added in double
 /// (point-to-point sums in double), one accumulator per thread over fixed ranges of blocks, merged in
 /// order: deterministic for a fixed thread count. Numerical failure is a status, never an exception.
 
@@ -32,6 +33,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
+#include "binpick/core/detail/simd.hpp"
 #include "binpick/core/errors.hpp"
 #include "binpick/core/pose.hpp"
 #include "binpick/registration/correspondence.hpp"
@@ -134,18 +136,56 @@ struct PlaneBlockSums {
   Scalar g[6] = {};
   Scalar sum_sq = Scalar(0);
   std::size_t count = 0;
-  void add(const Scalar (&J)[6], Scalar w, Scalar r) {
-    // Written out (fixed indices) so the compiler keeps the terms in registers.
-    const Scalar w0 = w * J[0], w1 = w * J[1], w2 = w * J[2], w3 = w * J[3], w4 = w * J[4], w5 = w * J[5];
-    h[0] += w0 * J[0]; h[1] += w0 * J[1]; h[2] += w0 * J[2]; h[3] += w0 * J[3]; h[4] += w0 * J[4]; h[5] += w0 * J[5];
-    h[6] += w1 * J[1]; h[7] += w1 * J[2]; h[8] += w1 * J[3]; h[9] += w1 * J[4]; h[10] += w1 * J[5];
-    h[11] += w2 * J[2]; h[12] += w2 * J[3]; h[13] += w2 * J[4]; h[14] += w2 * J[5];
-    h[15] += w3 * J[3]; h[16] += w3 * J[4]; h[17] += w3 * J[5];
-    h[18] += w4 * J[4]; h[19] += w4 * J[5];
-    h[20] += w5 * J[5];
-    g[0] += w0 * r; g[1] += w1 * r; g[2] += w2 * r; g[3] += w3 * r; g[4] += w4 * r; g[5] += w5 * r;
-    sum_sq += r * r;
-    ++count;
+};
+
+/// The kept pairs of one block as structure-of-arrays rows (J_i, r_i, w_i), summed lane-wise: each
+/// lane of a SIMD pack accumulates every L-th pair, and the lanes are added at the end (a fixed order,
+/// so the sums stay deterministic).
+template <typename Scalar>
+struct PlaneBlock {
+  using P = detail::Pack<Scalar>;
+  static constexpr int kRows = 8;  // J (6), r, w
+  alignas(64) Scalar row[kRows][kPlaneBlock + P::size];
+
+  void set(int i, Scalar m0, Scalar m1, Scalar m2, Scalar n0, Scalar n1, Scalar n2, Scalar r, Scalar w) {
+    row[0][i] = m0; row[1][i] = m1; row[2][i] = m2;
+    row[3][i] = n0; row[4][i] = n1; row[5][i] = n2;
+    row[6][i] = r;  row[7][i] = w;
+  }
+
+  /// Σ w J Jᵀ (upper triangle), Σ w r J and Σ r² over the first `m` rows.
+  PlaneBlockSums<Scalar> sums(int m) {
+    using V = typename P::type;
+    constexpr int L = P::size;
+    const int padded = (m + L - 1) / L * L;
+    for (int k = 0; k < kRows; ++k)
+      for (int i = m; i < padded; ++i) row[k][i] = Scalar(0);  // zero weight and residual: no effect
+    V h[21], g[6], sq;
+    for (V& v : h) v = P::splat(Scalar(0));
+    for (V& v : g) v = P::splat(Scalar(0));
+    sq = P::splat(Scalar(0));
+    for (int i = 0; i < padded; i += L) {
+      const V j0 = P::load(row[0] + i), j1 = P::load(row[1] + i), j2 = P::load(row[2] + i);
+      const V j3 = P::load(row[3] + i), j4 = P::load(row[4] + i), j5 = P::load(row[5] + i);
+      const V r = P::load(row[6] + i), w = P::load(row[7] + i);
+      const V w0 = w * j0, w1 = w * j1, w2 = w * j2, w3 = w * j3, w4 = w * j4, w5 = w * j5;
+      h[0] += w0 * j0; h[1] += w0 * j1; h[2] += w0 * j2; h[3] += w0 * j3; h[4] += w0 * j4; h[5] += w0 * j5;
+      h[6] += w1 * j1; h[7] += w1 * j2; h[8] += w1 * j3; h[9] += w1 * j4; h[10] += w1 * j5;
+      h[11] += w2 * j2; h[12] += w2 * j3; h[13] += w2 * j4; h[14] += w2 * j5;
+      h[15] += w3 * j3; h[16] += w3 * j4; h[17] += w3 * j5;
+      h[18] += w4 * j4; h[19] += w4 * j5;
+      h[20] += w5 * j5;
+      g[0] += w0 * r; g[1] += w1 * r; g[2] += w2 * r; g[3] += w3 * r; g[4] += w4 * r; g[5] += w5 * r;
+      sq += r * r;
+    }
+    PlaneBlockSums<Scalar> out;
+    for (int l = 0; l < L; ++l) {
+      for (int k = 0; k < 21; ++k) out.h[k] += h[k][l];
+      for (int k = 0; k < 6; ++k) out.g[k] += g[k][l];
+      out.sum_sq += sq[l];
+    }
+    out.count = std::size_t(m);
+    return out;
   }
 };
 
@@ -229,7 +269,7 @@ Isometry3<Scalar> orthonormalized(const Isometry3<Scalar>& T) {
 
 /// Registers `source` (source frame [m]; normals optional, used to reject incompatible pairs) to the
 /// target held by `association`, starting from `T_target_source_init`. Non-finite source points are
-/// skipped. Throws std::invalid_argument for settings out of range or an invalid initial pose;
+/// skipped, and so are points without a normal when the source has normals (they could never pair). Throws std::invalid_argument for settings out of range or an invalid initial pose;
 /// everything else is reported in the result. Point-to-plane needs target normals
 /// (`association.has_target_normals()`), else throws.
 template <typename Scalar, typename Association>
@@ -271,13 +311,18 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
   std::vector<Vector3<Scalar>> src, src_normals;
   src.reserve(source_points.size() / std::size_t(settings.stride) + 1);
   Eigen::Vector3d centroid_src = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < source_points.size(); i += std::size_t(settings.stride))
-    if (source_points[i].allFinite()) {
-      src.push_back(source_points[i]);
-      if (use_normals)
-        src_normals.push_back(source.normals[i].allFinite() ? source.normals[i] : Vector3<Scalar>::Zero());
-      centroid_src += source_points[i].template cast<double>();
+  for (std::size_t i = 0; i < source_points.size(); i += std::size_t(settings.stride)) {
+    if (!source_points[i].allFinite()) continue;
+    if (use_normals) {
+      // A point without a normal (likely on an edge) is never paired (compatible() below): dropped
+      // here, it costs neither a transform nor a lookup per iteration.
+      const Vector3<Scalar>& nrm = source.normals[i];
+      if (!nrm.allFinite() || nrm.squaredNorm() < Scalar(0.5)) continue;
+      src_normals.push_back(nrm);
     }
+    src.push_back(source_points[i]);
+    centroid_src += source_points[i].template cast<double>();
+  }
   if (src.size() < min_corr) return result;
   centroid_src /= double(src.size());
 
@@ -315,32 +360,39 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
       const Vector3<Scalar> cs = c.cast<Scalar>();
       const Eigen::Matrix<Scalar, 3, 3> Rs = R_ts.cast<Scalar>();
       const Scalar max_ds = Scalar(max_d), ks = Scalar(k), cos_ns = Scalar(cos_normal);
-      const bool check_target_normal = association.has_target_normals();
+      const bool check_normals = use_normals && association.has_target_normals();
       const std::ptrdiff_t blocks = (n + rd::kPlaneBlock - 1) / rd::kPlaneBlock;
       const rd::PlaneAccumulator acc = rd::parallel_reduce(
           blocks, threads, rd::PlaneAccumulator{},
           [&](rd::PlaneAccumulator& a, std::ptrdiff_t b) {
-            rd::PlaneBlockSums<Scalar> sums;
+            // Pass 1 (scalar: lookups and rejections) gathers the kept pairs of the block into
+            // structure-of-arrays rows; pass 2 sums their products lane-wise in SIMD packs.
+            rd::PlaneBlock<Scalar> blk;
             const std::ptrdiff_t end = std::min(n, (b + 1) * rd::kPlaneBlock);
+            int m = 0;
             for (std::ptrdiff_t i = b * rd::kPlaneBlock; i < end; ++i) {
               const std::ptrdiff_t j = partners[std::size_t(i)];
               if (j < 0) continue;
-              const Vector3<Scalar>& nrm = association.target_normal(j);
-              if (nrm.squaredNorm() < Scalar(0.5)) continue;  // unknown normal
-              if (use_normals) {  // compatible(): same rule, in Scalar
-                const Vector3<Scalar>& ns = src_normals[std::size_t(i)];
-                if (ns.squaredNorm() < Scalar(0.5)) continue;
-                if (check_target_normal && (Rs * ns).dot(nrm) < cos_ns) continue;
+              // Written on components: Eigen's fixed 3-vector expressions cost several times more here.
+              const Scalar* nt = association.target_normal(j).data();
+              const Scalar nx = nt[0], ny = nt[1], nz = nt[2];
+              if (nx * nx + ny * ny + nz * nz < Scalar(0.5)) continue;  // unknown normal
+              if (check_normals) {  // compatible(): same rule, in Scalar (source points have normals)
+                const Scalar* ns = src_normals[std::size_t(i)].data();
+                const Scalar rx = Rs(0, 0) * ns[0] + Rs(0, 1) * ns[1] + Rs(0, 2) * ns[2];
+                const Scalar ry = Rs(1, 0) * ns[0] + Rs(1, 1) * ns[1] + Rs(1, 2) * ns[2];
+                const Scalar rz = Rs(2, 0) * ns[0] + Rs(2, 1) * ns[1] + Rs(2, 2) * ns[2];
+                if (rx * nx + ry * ny + rz * nz < cos_ns) continue;
               }
-              const Vector3<Scalar>& q = moved[std::size_t(i)];
-              const Scalar r = nrm.dot(q - association.target_point(j));
+              const Scalar* q = moved[std::size_t(i)].data();
+              const Scalar* y = association.target_point(j).data();
+              const Scalar r = nx * (q[0] - y[0]) + ny * (q[1] - y[1]) + nz * (q[2] - y[2]);
               if (!(std::abs(r) <= max_ds)) continue;
-              const Scalar w = rd::robust_weight(settings.kernel, r, ks);
-              const Vector3<Scalar> m = (q - cs).cross(nrm);
-              const Scalar J[6] = {m.x(), m.y(), m.z(), nrm.x(), nrm.y(), nrm.z()};
-              sums.add(J, w, r);
+              const Scalar dx = q[0] - cs.x(), dy = q[1] - cs.y(), dz = q[2] - cs.z();
+              blk.set(m++, dy * nz - dz * ny, dz * nx - dx * nz, dx * ny - dy * nx, nx, ny, nz, r,
+                      rd::robust_weight(settings.kernel, r, ks));
             }
-            a.add(sums);
+            a.add(blk.sums(m));
           },
           [](rd::PlaneAccumulator& total, const rd::PlaneAccumulator& a) { total.merge(a); }, 1);
       result.inliers = acc.count;

@@ -63,9 +63,10 @@ class ProjectiveAssociation {
       const Vector3<Scalar>& q = queries[std::size_t(i)];
       const auto px = camera_.project(q);
       if (!px) return;
-      // Nearest pixel; project() kept (u, v) within half a pixel of the image, the clamps below
-      // absorb rounding at its border. floor(x + 0.5) inline: lround is a library call.
-      const int u0 = int(std::floor(px->x() + Scalar(0.5))), v0 = int(std::floor(px->y() + Scalar(0.5)));
+      // Nearest pixel: project() keeps (u, v) >= -0.5, so truncating u + 0.5 is floor(u + 0.5)
+      // (std::floor is a library call at the baseline ISA); the clamps below absorb rounding at
+      // the far border.
+      const int u0 = int(px->x() + Scalar(0.5)), v0 = int(px->y() + Scalar(0.5));
       if (r == 0) {  // the default: one pixel, no window loop
         if (u0 < 0 || v0 < 0 || u0 >= w || v0 >= h) return;
         const std::size_t id = target_.index(u0, v0);
