@@ -46,10 +46,10 @@ IcpResult<Scalar> align_depth_view(const DepthImageView<Scalar>& source_depth, c
                                    const IcpSettings<Scalar>& settings = {},
                                    const OrganizedNormalSettings<Scalar>& source_normals = {}) {
   require(settings.stride >= 1, "stride", "must be >= 1");
-  const OrganizedCloud<Scalar> organized = backproject_organized(source_depth, source_camera);
   IcpSettings<Scalar> s = settings;
   s.stride = 1;  // applied to the image grid here
-  return icp(subsample_with_normals(organized, settings.stride, source_normals), target, T_target_source_init, s);
+  return icp(subsample_with_normals(source_depth, source_camera, settings.stride, source_normals), target,
+             T_target_source_init, s);
 }
 
 /// One call: builds the projective target from `target_depth` and registers `source_depth` to it.
