@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
+#include <algorithm>
+#include <cstring>
 #include <stdexcept>
 #include <thread>
 
@@ -293,12 +295,11 @@ TEST(Pipeline, RejectsBadSettings) {
 // ---------------------------------------------------------------------------------------------------
 // The strategies with the reference estimator on a fixed seed.
 
-// Pencil couplers, two piles of 6 parts (binpick_sim --types pencil_coupler --parts 6 --seed 11, runs
-// 3 and 4): multi-view sensing picks more than one view (paper Fig. 11); the random path (B) must not
-// do better than active vision. Measured: ours 11, A 0, B 10 of 12. Summed over both piles, with a
-// margin of one pick against B, since the simulated clock takes measured processing time and a pick
-// may differ between runs.
-TEST(Strategies, OursBeatsSingleViewAndIsNotBeatenByRandomPath) {
+// Pencil couplers, two piles of 6 parts (binpick_sim --types pencil_coupler --parts 6 --seed 11
+// --compute-time 60, runs 3 and 4): multi-view sensing picks more than one view (paper Fig. 11), and
+// active vision more than the random path (B). With a fixed compute time on the simulated clock the
+// runs are the same on any machine; measured: ours 11, A 0, B 10 of 12.
+TEST(Strategies, OursBeatsSingleViewAndRandomPath) {
   auto run = [](cycle::Strategy s, std::uint64_t pile) {
     simcell::CellOptions o;
     o.part = sim::PartType::pencil_coupler;
@@ -307,6 +308,7 @@ TEST(Strategies, OursBeatsSingleViewAndIsNotBeatenByRandomPath) {
     cycle::PipelineSettings<S> ps;
     ps.strategy = s;
     ps.seed = o.seed;
+    ps.fixed_compute_time = 0.060;  // the same cycles on any machine
     simcell::Cell cell(o, ps);
     int picked = 0, fails = 0;
     for (int k = 0; k < 10 && cell.remaining() > 0 && fails < 3; ++k) {
@@ -324,6 +326,59 @@ TEST(Strategies, OursBeatsSingleViewAndIsNotBeatenByRandomPath) {
     a += run(cycle::Strategy::single_view, pile);
     b += run(cycle::Strategy::random_path, pile);
   }
+  std::printf("picked of 12: ours %d, A %d, B %d\n", ours, a, b);
   EXPECT_GE(ours, a + 4) << "ours " << ours << ", A " << a << " of 12";
-  EXPECT_GE(ours + 1, b) << "ours " << ours << ", B " << b << " of 12";
+  EXPECT_GT(ours, b) << "ours " << ours << ", B " << b << " of 12";
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Determinism of the simulated picking test (with a fixed compute time on the simulated clock, the
+// cycles do not depend on how long the computer took), with driver faults injected on a seeded
+// schedule. Two cells built alike run the same cycles bit for bit.
+
+TEST(Determinism, SimulatedPickingWithFaultsIsBitIdenticalTwiceInOneProcess) {
+  struct Trace {
+    std::vector<int> statuses, recognized, remaining, faults;
+    std::vector<double> times;  // cycle time, wait, detour, processing, timeline ends
+    std::vector<S> grasps;      // T_base_grasp of each grasping cycle
+  };
+  auto run = [] {
+    simcell::CellOptions o;
+    o.part = sim::PartType::circle_nut;
+    o.parts = 3;
+    o.seed = 2;
+    cycle::PipelineSettings<S> ps;
+    ps.seed = o.seed;
+    ps.fixed_compute_time = 0.060;
+    simcell::Cell cell(o, ps);
+    simcell::FaultSchedule schedule(0.5, o.seed);
+    Trace t;
+    for (int k = 0; k < 8 && cell.remaining() > 0; ++k) {
+      const simcell::Arm arm = schedule.next();
+      cell.arm(arm);
+      const auto r = cell.pipeline->run_cycle();
+      EXPECT_FALSE(cell.fused_wrong_pose(r)) << "cycle " << k;
+      t.statuses.push_back(int(r.status));
+      t.recognized.push_back(r.recognized);
+      t.remaining.push_back(cell.remaining());
+      t.faults.push_back(cell.fired(arm) ? int(arm.fault) : 0);
+      for (double x : {r.takt.cycle_time, r.takt.robot_wait, r.takt.detour, r.takt.processing}) t.times.push_back(x);
+      for (const auto& e : r.timeline.entries()) t.times.push_back(e.end);
+      if (r.status == cycle::CycleStatus::picked || r.status == cycle::CycleStatus::grasp_failed)
+        t.grasps.insert(t.grasps.end(), r.T_base_grasp.matrix().data(), r.T_base_grasp.matrix().data() + 16);
+    }
+    return t;
+  };
+  const Trace a = run(), b = run();
+  EXPECT_EQ(a.statuses, b.statuses);
+  EXPECT_EQ(a.recognized, b.recognized);
+  EXPECT_EQ(a.remaining, b.remaining);
+  EXPECT_EQ(a.faults, b.faults);
+  ASSERT_EQ(a.times.size(), b.times.size());
+  EXPECT_EQ(0, std::memcmp(a.times.data(), b.times.data(), a.times.size() * sizeof(double)));
+  ASSERT_EQ(a.grasps.size(), b.grasps.size());
+  EXPECT_EQ(0, std::memcmp(a.grasps.data(), b.grasps.data(), a.grasps.size() * sizeof(S)));
+  // The run exercised what it claims to: faults fired, and parts were picked.
+  EXPECT_GT(std::count_if(a.faults.begin(), a.faults.end(), [](int f) { return f != 0; }), 0);
+  EXPECT_GT(std::count(a.statuses.begin(), a.statuses.end(), int(cycle::CycleStatus::picked)), 0);
 }

@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # Determinism across processes: the same program with the same inputs, seed and thread count gives
 # byte-identical output when run twice. Timing fields ("time*", "*_ms", "*_s") are removed first.
-# Usage: test_determinism.sh <reliability_fingerprint> [<binpick_fuse> <data-dir>]
-# (The simulated picking test is not compared: the pipeline adds measured processing time to the
-# simulated clock, so its cycles depend on the machine load by design.)
+# Usage: test_determinism.sh <reliability_fingerprint> <binpick_sim or -> [<binpick_fuse> <data-dir>]
+# The simulated picking test runs with --compute-time (a fixed processing time on the simulated clock;
+# by default the measured time is added, so later cycles depend on the machine's load) and with driver
+# faults; its per-cycle CSV is compared without the measured-time columns.
 set -u
 fp="$1"
-fuse="${2:-}"
-data="${3:-}"
+simtool="${2:--}"
+fuse="${3:-}"
+data="${4:-}"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
@@ -17,6 +19,22 @@ strip_timing() { sed -E 's/"[A-Za-z_]*(time|_ms|_s|seconds)[A-Za-z_]*": *[-0-9.e
 "$fp" >"$tmp/b" || fail "fingerprint run 2"
 cat "$tmp/a"
 cmp -s "$tmp/a" "$tmp/b" || { diff "$tmp/a" "$tmp/b"; fail "fusion fingerprints differ between two processes"; }
+
+if [ "$simtool" != "-" ]; then
+  for run in 1 2; do
+    "$simtool" --types circle_nut --runs 1 --parts 3 --strategies ours,A,B,C --max-failures 3 --jobs 2 \
+      --fault-rate 0.5 --compute-time 60 --seed 2 --csv "$tmp/sim$run.csv" --json 2>/dev/null | strip_timing >"$tmp/sim$run.json" \
+      || fail "binpick_sim run $run"
+    # Columns 18-20 are the measured fusion, estimation and planning times.
+    cut -d, -f1-17,21- "$tmp/sim$run.csv" >"$tmp/sim$run.rows"
+  done
+  rows=$(($(wc -l <"$tmp/sim1.rows") - 1))
+  [ "$rows" -ge 8 ] || fail "binpick_sim ran only $rows cycles"
+  grep -q '"fired": [1-9]' "$tmp/sim1.json" || fail "binpick_sim injected no fault"
+  echo "binpick_sim: $rows cycles"
+  cmp -s "$tmp/sim1.rows" "$tmp/sim2.rows" || { diff "$tmp/sim1.rows" "$tmp/sim2.rows"; fail "binpick_sim cycles differ"; }
+  cmp -s "$tmp/sim1.json" "$tmp/sim2.json" || { diff "$tmp/sim1.json" "$tmp/sim2.json"; fail "binpick_sim summaries differ"; }
+fi
 
 if [ -n "$fuse" ] && [ -n "$data" ] && [ -d "$data/redwood_rgbd" ]; then
   rw="$data/redwood_rgbd"

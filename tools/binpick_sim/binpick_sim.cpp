@@ -5,6 +5,9 @@
 // multi-view) and C (stop-and-go multi-view, Robot Fusion [12]). Prints a Table-III-like table per
 // strategy, the mean sensing time in takt and the processing time per cycle; --csv writes one row per
 // cycle, --json prints a summary for scripts, --out writes pictures of one cycle of ours.
+// --fault-rate injects driver faults on a seeded schedule (faulty_drivers.hpp) and reports what each
+// cost; --compute-time puts a fixed compute time on the simulated clock instead of the measured one,
+// which makes the whole test bit-reproducible for a seed (tests/reliability/test_determinism.sh).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -57,6 +60,8 @@ struct Options {
   bool json = false;
   std::string csv, out, params, summary;
   int width = 640, height = 512;
+  double fault_rate = 0;     // probability of a driver fault per cycle [-]
+  double compute_time = -1;  // fixed compute time per cycle on the simulated clock [s]; < 0: measured
 };
 
 struct RunResult {
@@ -64,6 +69,8 @@ struct RunResult {
   sim::PartType type;
   int run = 0, initial = 0, picked = 0, cycles = 0, searches = 0;
   std::vector<std::string> csv_rows;
+  simcell::FaultLedger faults;
+  int wrong_pose_cycles = 0;
   std::vector<double> sensing_in_takt, processing_ms, fusion_ms, estimation_ms, planning_ms, phase_ms, cycle_s;
 };
 
@@ -72,11 +79,16 @@ int usage(const char* argv0) {
                "usage: %s [--types all|NAME,...] [--runs R] [--parts P] [--strategies ours,A,B,C] [--seed N]\n"
                "          [--json] [--csv FILE] [--out DIR] [--full] [--jobs J] [--max-failures K]\n"
                "          [--params FILE] [--resolution 640x512|1280x1024] [--summary FILE]\n"
+               "          [--fault-rate F] [--compute-time MS]\n"
                "  The picking test of Table III in the simulated cell (all figures simulated).\n"
                "  Defaults: all 5 types, 1 run of 10 parts, 640x512, 2 jobs. --full: 20 runs of 20 parts.\n"
                "  --params FILE: sensing parameters per type as written by binpick_calibrate (lines\n"
                "  'TYPE n t_ms v_percent ...'); otherwise the paper's Table III values.\n"
                "  --summary FILE: also write the --json summary to FILE.\n"
+               "  --fault-rate F: inject a driver fault (frame lost or late, pose read failing or stale, robot\n"
+               "  stopping) in a cycle with probability F on a seeded schedule; the summary says what each cost.\n"
+               "  --compute-time MS: the simulated clock advances by MS per cycle for processing instead of the\n"
+               "  measured time, so every cycle is the same on any machine (measured times are still reported).\n"
                "  --out DIR: fused_depth.png, fused_depth_mm.png, votes.png, sensing_path.svg, timeline.svg of\n"
                "  one cycle of ours (the second cycle of the first run of the first type).\n",
                argv0);
@@ -158,7 +170,9 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
   ps.sensing_speed_percent = float(prm.v_percent);
   ps.seed = co.seed;
   ps.keep_images = pictures;
+  ps.fixed_compute_time = o.compute_time;
   simcell::Cell cell(co, ps);
+  simcell::FaultSchedule schedule(o.fault_rate, co.seed);
   RunResult rr;
   rr.strategy = strategy;
   rr.type = type;
@@ -167,8 +181,13 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
   int failures_in_row = 0;
   const int max_cycles = 3 * cell.initial_parts + 10;
   while (cell.remaining() > 0 && failures_in_row < o.max_failures && rr.cycles < max_cycles) {
+    const simcell::Arm arm = schedule.next();
+    cell.arm(arm);
     const auto r = cell.pipeline->run_cycle();
     ++rr.cycles;
+    const bool fired = cell.fired(arm), wrong_pose = cell.fused_wrong_pose(r);
+    rr.faults.record(arm, fired, r.status, wrong_pose);
+    rr.wrong_pose_cycles += wrong_pose;
     if (r.search) ++rr.searches;
     const bool picked = r.status == cycle::CycleStatus::picked;
     failures_in_row = picked ? 0 : failures_in_row + 1;
@@ -204,12 +223,12 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
       std::snprintf(tilt, sizeof tilt, "%.1f,%d", std::acos(std::clamp(-double(r.T_base_grasp.linear()(2, 2)), -1.0, 1.0)) * 180 / M_PI,
                     int(r.grasp_clear));
     char buf[800];
-    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d%s,%s\n",
+    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d%s,%s,%s\n",
                   cycle::to_string(strategy), sim::part_type_name(type), run, r.index, cycle::to_string(r.status), cause, int(r.placed),
                   int(r.search), r.views, r.recognized, cycle::to_string(r.path_source),
                   plan_status_id(r.next_plan_status), r.takt.cycle_time, r.takt.detour, r.takt.robot_wait,
                   r.takt.sensing_in_takt(), r.takt.processing, r.fusion_ms, r.estimation_ms, r.planning_ms, cell.remaining(),
-                  diag.c_str(), tilt);
+                  diag.c_str(), tilt, fired ? simcell::to_string(arm.fault) : "-");
     rr.csv_rows.push_back(buf);
     // Pictures of the first cycle that placed a part (processing in parallel with the drop), else of
     // the last cycle.
@@ -251,6 +270,12 @@ int main(int argc, char** argv) {
       else if (a == "--full") full = true;
       else if (a == "--jobs") o.jobs = std::stoi(next());
       else if (a == "--max-failures") o.max_failures = std::stoi(next());
+      else if (a == "--fault-rate") o.fault_rate = std::stod(next());
+      else if (a == "--compute-time") {
+        const double ms = std::stod(next());
+        if (!(std::isfinite(ms) && ms >= 0)) throw std::invalid_argument("--compute-time must be finite and >= 0 [ms]");
+        o.compute_time = ms * 1e-3;
+      }
       else if (a == "--resolution") {
         const std::string r = next();
         if (r == "640x512") o.width = 640, o.height = 512;
@@ -261,6 +286,7 @@ int main(int argc, char** argv) {
     }
     if (full) o.runs = 20, o.parts = 20;
     if (o.runs < 1 || o.parts < 1 || o.jobs < 1 || o.max_failures < 1) throw std::invalid_argument("counts must be >= 1");
+    if (!(o.fault_rate >= 0 && o.fault_rate <= 1)) throw std::invalid_argument("--fault-rate must be in [0, 1]");
     if (types == "all")
       for (int k = 0; k < sim::kNumPartTypes; ++k) o.types.push_back(sim::PartType(k));
     else
@@ -324,7 +350,7 @@ int main(int argc, char** argv) {
   if (!o.csv.empty()) {
     std::ofstream f(o.csv);
     f << "strategy,type,run,cycle,status,cause,placed,search,views,recognized,path_source,next_plan_status,cycle_time_s,detour_s,"
-         "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining,grasp_error_mm,approach_error_deg,closing_error_deg,grasp_tilt_deg,grasp_clear\n";
+         "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining,grasp_error_mm,approach_error_deg,closing_error_deg,grasp_tilt_deg,grasp_clear,fault\n";
     for (const auto& r : results)
       for (const auto& row : r.csv_rows) f << row;
   }
@@ -336,7 +362,8 @@ int main(int argc, char** argv) {
   bool first_s = true;
   for (auto s : o.strategies) {
     std::vector<double> takt, proc, fus, est, pla, phase, cyc;
-    int searches = 0, runs = 0;
+    int searches = 0, runs = 0, wrong_pose_cycles = 0;
+    simcell::FaultLedger faults;
     if (!o.json) {
       std::printf("\nStrategy %s\n", strategy_label(s));
       std::printf("| %-26s |", "Objects");
@@ -363,6 +390,8 @@ int main(int argc, char** argv) {
         phase.insert(phase.end(), r.phase_ms.begin(), r.phase_ms.end());
         cyc.insert(cyc.end(), r.cycle_s.begin(), r.cycle_s.end());
         searches += r.searches;
+        faults.merge(r.faults);
+        wrong_pose_cycles += r.wrong_pose_cycles;
         ++runs;
       }
       Params p = params_of(t);
@@ -395,6 +424,13 @@ int main(int argc, char** argv) {
       std::printf("Processing per cycle: fusion+ICP %.1f ms + planning %.2f ms = %.1f ms (measured); estimation %.0f ms; "
                   "whole processing phase with Table I hardware time %.0f ms; mean cycle %.2f s\n",
                   mean(fus), mean(pla), mean(proc), mean(est), mean(phase), mean(cyc));
+      if (o.fault_rate > 0) {
+        std::printf("Driver faults (fired / cycles lost):");
+        for (int f = 1; f < simcell::kNumFaults; ++f)
+          std::printf(" %s %d/%d", simcell::to_string(simcell::Fault(f)), faults[simcell::Fault(f)].fired,
+                      faults[simcell::Fault(f)].cycles_lost);
+        std::printf("; cycles fusing a view with a wrong pose: %d\n", wrong_pose_cycles);
+      }
     }
     js << (first_s ? "" : ", ") << json_string(cycle::to_string(s)) << ": {\"types\": {";
     first_s = false;
@@ -408,7 +444,9 @@ int main(int argc, char** argv) {
     js << "}, \"sensing_in_takt_s\": " << json_number(mean(takt)) << ", \"processing_ms\": " << json_number(mean(proc))
        << ", \"estimation_ms\": " << json_number(mean(est)) << ", \"processing_phase_ms\": " << json_number(mean(phase))
        << ", \"searches_per_run\": " << json_number(runs ? double(searches) / runs : 0.0) << ", \"mean_cycle_s\": "
-       << json_number(mean(cyc)) << "}";
+       << json_number(mean(cyc));
+    if (o.fault_rate > 0) js << ", \"faults\": " << faults.json() << ", \"cycles_fusing_a_wrong_pose\": " << wrong_pose_cycles;
+    js << "}";
   }
   js << "}}";
   if (o.json) std::printf("%s\n", js.str().c_str());

@@ -3,7 +3,8 @@
 // the fake robot, the fake stereo sensor on its hand, the simulated clock, the reference estimator
 // (which sees only fused depth) and a simulated gripper that judges a grasp against the true scene.
 // Ground truth is used here for two things only: rendering and judging whether a grip holds a part
-// (as the real world does) — it never reaches the estimator or the pipeline.
+// (as the real world does) — it never reaches the estimator or the pipeline. The drivers are wrapped
+// for fault injection (faulty_drivers.hpp); unarmed, the wrappers pass every call through.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -13,6 +14,7 @@
 #include "binpick/sim.hpp"
 #include "binpick/sim/grasp_model.hpp"
 #include "binpick/sim/reference_estimator.hpp"
+#include "faulty_drivers.hpp"
 
 namespace binpick::simcell {
 
@@ -69,13 +71,16 @@ struct CellOptions {
 struct Cell {
   using S = float;
   using Camera = PinholeCamera<S>;
-  using Pipeline = cycle::PickingPipeline<sim::FakeRobot<S>, sim::FakeSensor<S>, sim::ReferenceEstimator<S, Camera>,
-                                          sim::SimClock, SimGripper<S>>;
+  using Robot = FaultyRobot<S>;
+  using Sensor = FaultySensor<S>;
+  using Pipeline = cycle::PickingPipeline<Robot, Sensor, sim::ReferenceEstimator<S, Camera>, sim::SimClock, SimGripper<S>>;
   sim::Scene<S> scene;
   int initial_parts = 0;
   sim::SimClock clock;
-  std::unique_ptr<sim::FakeRobot<S>> robot;
-  std::unique_ptr<sim::FakeSensor<S>> sensor;
+  std::unique_ptr<sim::FakeRobot<S>> fake_robot;
+  std::unique_ptr<sim::FakeSensor<S>> fake_sensor;
+  std::unique_ptr<Robot> robot;
+  std::unique_ptr<Sensor> sensor;
   std::unique_ptr<sim::ReferenceEstimator<S, Camera>> estimator;
   std::unique_ptr<SimGripper<S>> gripper;
   std::unique_ptr<Pipeline> pipeline;
@@ -88,13 +93,15 @@ struct Cell {
     initial_parts = int(scene.parts().size());
     sim::FakeRobotSettings<S> rs;
     rs.seed = o.seed;
-    robot = std::make_unique<sim::FakeRobot<S>>(clock, ps.T_base_drop, rs);
+    fake_robot = std::make_unique<sim::FakeRobot<S>>(clock, ps.T_base_drop, rs);
     sim::StereoSensorSettings<S> st;
     st.width = o.width;
     st.height = o.height;
     st.seed = o.seed;
     st.num_threads = o.threads;
-    sensor = std::make_unique<sim::FakeSensor<S>>(scene, *robot, clock, ps.T_flange_camera, st);
+    fake_sensor = std::make_unique<sim::FakeSensor<S>>(scene, *fake_robot, clock, ps.T_flange_camera, st);
+    robot = std::make_unique<Robot>(*fake_robot, clock);
+    sensor = std::make_unique<Sensor>(*fake_sensor, *fake_robot);
     sim::ReferenceEstimatorSettings<S> es;
     es.num_threads = o.threads;
     estimator = std::make_unique<sim::ReferenceEstimator<S, Camera>>(scene.model(o.part), es);
@@ -103,6 +110,28 @@ struct Cell {
     pipeline = std::make_unique<Pipeline>(*robot, *sensor, *estimator, clock, *gripper, ps);
   }
   int remaining() const { return int(scene.parts().size()); }
+
+  /// Arms a fault for the next cycle (Fault::none disarms both drivers).
+  void arm(const Arm& a) {
+    const bool on_sensor = a.fault == Fault::frame_lost || a.fault == Fault::frame_late;
+    robot->arm(a.fault != Fault::none && !on_sensor ? a : Arm{});
+    sensor->arm(on_sensor ? a : Arm{});
+  }
+  /// Whether the fault armed for the last cycle was injected.
+  bool fired(const Arm& a) const {
+    const bool on_sensor = a.fault == Fault::frame_lost || a.fault == Fault::frame_late;
+    return a.fault != Fault::none && (on_sensor ? sensor->armed().fired : robot->armed().fired);
+  }
+  /// Whether cycle `r` fused a view whose pose read is far from where the camera truly was. Late reads
+  /// in motion are off by latency x speed (about 2 cm here), which registration absorbs; 5 cm is far
+  /// beyond that. Ground truth, for judging the run only.
+  bool fused_wrong_pose(const cycle::CycleResult<S>& r) const {
+    if (r.views == 0 || r.status == cycle::CycleStatus::sensor_failure || r.status == cycle::CycleStatus::robot_failure) return false;
+    const auto& truth = sensor->truth();
+    for (std::size_t k = 0; k < r.T_base_captures_read.size() && k < truth.size(); ++k)
+      if ((r.T_base_captures_read[k].translation() - truth[k].translation()).norm() > S(0.05)) return true;
+    return false;
+  }
 };
 
 }  // namespace binpick::simcell

@@ -35,7 +35,6 @@
 #include "binpick/cycle/pipeline.hpp"
 #include "binpick/sim.hpp"
 #include "binpick/sim/reference_estimator.hpp"
-#include "faulty_drivers.hpp"
 #include "io.hpp"
 #include "sim_cell.hpp"
 
@@ -113,16 +112,6 @@ double median(std::vector<double> v) {
 }
 
 using S = float;
-using Camera = PinholeCamera<S>;
-using Robot = soak::FaultyRobot<S>;
-using Sensor = soak::FaultySensor<S>;
-using Estimator = sim::ReferenceEstimator<S, Camera>;
-using Pipeline = cycle::PickingPipeline<Robot, Sensor, Estimator, sim::SimClock, simcell::SimGripper<S>>;
-
-struct FaultStats {
-  int armed = 0, fired = 0, cycles_lost = 0, wrong_pose_used = 0;
-  std::map<std::string, int> outcomes;
-};
 
 }  // namespace
 
@@ -187,36 +176,25 @@ int main(int argc, char** argv) {
 #endif
   const int fds_before = fd_count(), threads_before = thread_count();
 
-  // The cell of binpick_sim (sim_cell.hpp) with the drivers wrapped for fault injection.
+  // The cell of binpick_sim (sim_cell.hpp; its drivers are wrapped for fault injection).
   const sim::PartType part = sim::PartType::small_screw;
-  sim::SceneSettings<S> ss;
-  ss.part_type = part;
-  ss.num_parts = o.parts;
-  sim::Scene<S> scene = sim::Scene<S>::generate(ss, o.seed);
+  simcell::CellOptions co;
+  co.part = part;
+  co.parts = o.parts;
+  co.seed = o.seed;
+  co.width = o.width;
+  co.height = o.height;
+  co.threads = o.threads;
   cycle::PipelineSettings<S> ps;
   ps.num_views = 4;
   ps.interval = 0.030;
   ps.sensing_speed_percent = 70;
   ps.seed = o.seed;
-  ps.fusion.num_threads = o.threads;
-  sim::SimClock clock;
-  sim::FakeRobotSettings<S> rs;
-  rs.seed = o.seed;
-  sim::FakeRobot<S> fake_robot(clock, ps.T_base_drop, rs);
-  sim::StereoSensorSettings<S> st;
-  st.width = o.width;
-  st.height = o.height;
-  st.seed = o.seed;
-  st.num_threads = o.threads;
-  sim::FakeSensor<S> fake_sensor(scene, fake_robot, clock, ps.T_flange_camera, st);
-  Robot robot(fake_robot, clock);
-  Sensor sensor(fake_sensor, fake_robot);
-  sim::ReferenceEstimatorSettings<S> es;
-  es.num_threads = o.threads;
-  Estimator estimator(scene.model(part), es);
-  simcell::SimGripper<S> gripper(scene, part);
-  // Owned here so it can be destroyed before the final count: its processing thread lives as long as it.
-  auto pipeline = std::make_unique<Pipeline>(robot, sensor, estimator, clock, gripper, ps);
+  simcell::Cell cell(co, ps);
+  sim::Scene<S>& scene = cell.scene;
+  sim::SceneSettings<S> ss;
+  ss.part_type = part;
+  ss.num_parts = o.parts;
 
   std::FILE* trace = nullptr;
   if (!o.trace.empty()) {
@@ -228,16 +206,14 @@ int main(int argc, char** argv) {
     std::fprintf(trace, "cycle,status,parts_in_bin,refills,swaps,processing_ms,rss_kb,heap_arena_kb,heap_in_use_kb,heap_free_kb,heap_mapped_kb,threads\n");
   }
 
-  std::uint64_t rng = o.seed * 0x9E3779B97F4A7C15ULL + 0xfa17ULL;  // the fault schedule
+  simcell::FaultSchedule schedule(o.fault_rate, o.seed);
+  simcell::FaultLedger faults;
   std::vector<double> cycle_ms, processing_ms;
   std::map<std::string, int> statuses;
-  FaultStats faults[soak::kNumFaults];
   int refills = 0, swaps = 0, picked = 0, since_pick = 0, wrong_pose_cycles = 0;
   long rss_warm = -1, rss_peak_after_warm = 0;
   std::size_t heap_warm = 0;  // live heap [bytes]
   int threads_warm = -1, threads_peak_after_warm = 0;
-  // A fault's cost: the failed cycle plus any further failed cycles until the next normal one.
-  int open_fault = -1;
   for (int c = 0; c < o.cycles; ++c) {
     // Refill when the bin is empty. A bin that yields no pick for --stuck cycles is what an operator
     // empties and refills by hand (a swap): the pile stays bounded by --parts either way, so memory
@@ -252,53 +228,20 @@ int main(int argc, char** argv) {
       swaps += stuck;
       since_pick = 0;
     }
-    soak::Arm arm;
-    if (o.fault_rate > 0 && cycle::detail::uniform01(rng) < o.fault_rate) {
-      arm.fault = soak::Fault(1 + int(cycle::detail::splitmix64(rng) % (soak::kNumFaults - 1)));
-      // Which call: a view 1..n for sensor and pose faults, a motion 1..4 for the robot.
-      arm.at_call = 1 + int(cycle::detail::splitmix64(rng) % 4);
-    }
-    robot.arm(arm.fault == soak::Fault::pose_fails || arm.fault == soak::Fault::pose_stale || arm.fault == soak::Fault::robot_stops
-                  ? arm : soak::Arm{});
-    sensor.arm(arm.fault == soak::Fault::frame_lost || arm.fault == soak::Fault::frame_late ? arm : soak::Arm{});
+    const simcell::Arm arm = schedule.next();
+    cell.arm(arm);
 
     const auto t0 = std::chrono::steady_clock::now();
-    const auto r = pipeline->run_cycle();
+    const auto r = cell.pipeline->run_cycle();
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     cycle_ms.push_back(ms);
     processing_ms.push_back(r.fusion_ms + r.estimation_ms + r.planning_ms);
     ++statuses[cycle::to_string(r.status)];
     picked += r.status == cycle::CycleStatus::picked;
     since_pick = r.status == cycle::CycleStatus::picked ? 0 : since_pick + 1;
-
-    // Did this cycle fuse a view whose pose read is far from the truth? Late reads in motion are off
-    // by latency x speed (about 2 cm here), which registration absorbs; 5 cm is far beyond that.
-    bool wrong_pose = false;
-    if (r.views > 0 && r.status != cycle::CycleStatus::sensor_failure && r.status != cycle::CycleStatus::robot_failure) {
-      const auto& truth = sensor.truth();
-      for (std::size_t k = 0; k < r.T_base_captures_read.size() && k < truth.size(); ++k)
-        wrong_pose |= (r.T_base_captures_read[k].translation() - truth[k].translation()).norm() > S(0.05);
-    }
+    const bool wrong_pose = cell.fused_wrong_pose(r);
     wrong_pose_cycles += wrong_pose;
-
-    const bool failed = r.status == cycle::CycleStatus::sensor_failure || r.status == cycle::CycleStatus::robot_failure ||
-                        r.status == cycle::CycleStatus::processing_failure;
-    const soak::Arm& fired = arm.fault == soak::Fault::frame_lost || arm.fault == soak::Fault::frame_late ? sensor.armed() : robot.armed();
-    if (open_fault >= 0) {  // the cycles after a fault that still fail (e.g. the recovery)
-      if (failed) ++faults[open_fault].cycles_lost;
-      else open_fault = -1;
-    }
-    if (arm.fault != soak::Fault::none) {
-      FaultStats& f = faults[int(arm.fault)];
-      ++f.armed;
-      if (fired.fired) {
-        ++f.fired;
-        ++f.outcomes[cycle::to_string(r.status)];
-        f.wrong_pose_used += wrong_pose;
-        if (r.status != cycle::CycleStatus::picked) ++f.cycles_lost;  // the faulted cycle picked nothing
-        if (failed) open_fault = int(arm.fault);
-      }
-    }
+    faults.record(arm, cell.fired(arm), r.status, wrong_pose);
     if (trace) {
       const HeapStats h = heap_stats();
       std::fprintf(trace, "%d,%s,%zu,%d,%d,%.3f,%ld,%zu,%zu,%zu,%zu,%d\n", c, cycle::to_string(r.status), scene.parts().size(), refills, swaps,
@@ -316,7 +259,7 @@ int main(int argc, char** argv) {
   const long rss_end = rss_kb();
   const HeapStats heap_end = heap_stats();
   if (trace) std::fclose(trace);
-  pipeline.reset();  // joins the processing thread
+  cell.pipeline.reset();  // joins the processing thread
   const int fds_after = fd_count(), threads_after = thread_count();
 
   const std::size_t k = std::min<std::size_t>(100, cycle_ms.size() / 2);
@@ -345,19 +288,8 @@ int main(int argc, char** argv) {
         ", \"threads_peak_after_warmup\": " + std::to_string(threads_peak_after_warm) + ", \"cycle_wall_ms_median_first100\": " + json_number(first_cycle) +
         ", \"cycle_wall_ms_median_last100\": " + json_number(last_cycle) + ", \"processing_ms_median_first100\": " +
         json_number(first_proc) + ", \"processing_ms_median_last100\": " + json_number(last_proc) +
-        ", \"cycles_fusing_a_wrong_pose\": " + std::to_string(wrong_pose_cycles) + ", \"faults\": {";
-  first = true;
-  for (int f = 1; f < soak::kNumFaults; ++f) {
-    const FaultStats& s = faults[f];
-    js += std::string(first ? "" : ", ") + "\"" + soak::to_string(soak::Fault(f)) + "\": {\"armed\": " + std::to_string(s.armed) +
-          ", \"fired\": " + std::to_string(s.fired) + ", \"cycles_lost\": " + std::to_string(s.cycles_lost) +
-          ", \"wrong_pose_used\": " + std::to_string(s.wrong_pose_used) + ", \"outcomes\": {";
-    bool f2 = true;
-    for (const auto& [name, n] : s.outcomes) js += std::string(f2 ? "" : ", ") + "\"" + name + "\": " + std::to_string(n), f2 = false;
-    js += "}}";
-    first = false;
-  }
-  js += "}}";
+        ", \"cycles_fusing_a_wrong_pose\": " + std::to_string(wrong_pose_cycles) + ", \"faults\": " + faults.json();
+  js += "}";
   std::printf("%s\n", js.c_str());
 
   int rc = 0;

@@ -34,7 +34,11 @@
 /// Time: every duration is read from the Clock. Hardware durations a simulation cannot produce
 /// (image transfer, stereo depth per view) come from `takt` when `model_hardware_time` is set; fusion
 /// with ICP, estimation and planning are measured (steady clock) and added to the Clock time at which
-/// processing started, so a simulated cell accounts for them as a real one would.
+/// processing started, so a simulated cell accounts for them as a real one would. Measured time depends
+/// on the machine and its load, so a simulated cell's later cycles (where the robot waits, what time it
+/// is at each trigger) do too; `fixed_compute_time` replaces it on the Clock by a constant, which makes
+/// a simulated picking test bit-reproducible for a seed and thread count (measured times are still
+/// reported in CycleResult).
 ///
 /// Failures: an exception from a driver, a pose read that is not a rigid finite pose, a pose read or a
 /// frame stamped more than `max_stamp_offset` from its trigger, or fewer frames read back than
@@ -116,6 +120,11 @@ struct PipelineSettings {
   // Processing.
   TaktSettings takt;                       ///< Table I constants; hardware durations of the cell
   bool model_hardware_time = true;         ///< add transfer and stereo depth time from `takt` (simulated sensors)
+  /// < 0: the Clock advances by the measured compute time of fusion + ICP, estimation and planning (and
+  /// of the frame read when model_hardware_time is off) — what a real cell does. >= 0: it advances by
+  /// this many seconds per cycle instead, whatever the computer took, so a simulated cell runs the same
+  /// cycles on any machine under any load (the reproducible picking test) [s].
+  double fixed_compute_time = -1;
   FusionSettings<Scalar> fusion = default_fusion();  ///< sensor_accuracy is replaced by the sensor's
   /// Region of interest: fused depth whose point (base frame) lies outside the bin's inside shrunk by
   /// `crop_margin` from the walls, or above the wall top by more than `crop_height`, is removed before
@@ -310,6 +319,7 @@ class PickingPipeline {
     require(std::isfinite(s.working_distance) && s.working_distance > 0, "working_distance", "must be finite and > 0");
     require(std::isfinite(s.search_beta_factor) && s.search_beta_factor >= 1, "search_beta_factor", "must be >= 1");
     require(std::isfinite(s.stop_time) && s.stop_time >= 0, "stop_time", "must be finite and >= 0");
+    require(std::isfinite(s.fixed_compute_time), "fixed_compute_time", "must be finite (< 0: measured)");
     require(std::isfinite(s.max_stamp_offset) && s.max_stamp_offset > 0, "max_stamp_offset", "must be finite and > 0");
     require(std::isfinite(s.lift_clearance) && s.lift_clearance >= 0, "lift_clearance", "must be finite and >= 0");
     require(std::isfinite(s.approach_distance) && s.approach_distance >= 0, "approach_distance", "must be finite and >= 0");
@@ -657,12 +667,16 @@ class PickingPipeline {
     if (s_.model_hardware_time) {
       stage("transfer", s_.takt.transfer * double(n), false);
       stage("stereo depth", s_.takt.stereo_depth * double(n), false);
-    } else {
+    } else if (s_.fixed_compute_time < 0) {
       stage("transfer", p.read_s, true);
     }
-    stage("fusion+ICP", p.fusion_s, true);
-    stage("estimation", p.estimation_s, true);
-    stage("planning", p.planning_s, true);
+    if (s_.fixed_compute_time >= 0) {
+      stage("compute (fixed)", s_.fixed_compute_time, false);
+    } else {
+      stage("fusion+ICP", p.fusion_s, true);
+      stage("estimation", p.estimation_s, true);
+      stage("planning", p.planning_s, true);
+    }
     r.fusion_ms = p.fusion_s * 1e3;
     r.estimation_ms = p.estimation_s * 1e3;
     r.planning_ms = p.planning_s * 1e3;

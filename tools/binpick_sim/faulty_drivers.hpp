@@ -7,18 +7,22 @@
 //   pose_fails     the k-th pose read throws (the controller did not answer)
 //   pose_stale     the k-th pose read returns an old sample: the pose and time of a read 0.5 s earlier
 //   robot_stops    the k-th motion command stops half way along its first segment (arrival unchanged)
-// The sensor wrapper also records where the camera truly was at each trigger, so the soak can check
-// that no cycle fused a view whose pose read was far from the truth.
+// The sensor wrapper also records where the camera truly was at each trigger, so a run can check
+// that no cycle fused a view whose pose read was far from the truth. FaultSchedule draws the faults of
+// a run from a seed; FaultLedger counts what each one cost. Used by binpick_sim (--fault-rate) and
+// binpick_soak through the simulated cell (sim_cell.hpp).
 #include <cstdint>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "binpick/cycle/drivers.hpp"
+#include "binpick/cycle/pipeline.hpp"
 #include "binpick/sim/fake_robot.hpp"
 #include "binpick/sim/fake_sensor.hpp"
 
-namespace binpick::soak {
+namespace binpick::simcell {
 
 enum class Fault { none, frame_lost, frame_late, pose_fails, pose_stale, robot_stops };
 constexpr int kNumFaults = 6;
@@ -154,4 +158,92 @@ class FaultySensor {
 static_assert(cycle::is_robot_driver<FaultyRobot<float>>::value, "FaultyRobot models RobotDriver");
 static_assert(cycle::is_sensor_driver<FaultySensor<float>>::value, "FaultySensor models SensorDriver");
 
-}  // namespace binpick::soak
+/// The seeded fault schedule of a run: before each cycle, with probability `rate`, one fault of a
+/// uniformly drawn kind at a uniformly drawn call 1..4 (a view for sensor and pose faults, a motion for
+/// robot_stops); otherwise none.
+class FaultSchedule {
+ public:
+  /// Throws std::invalid_argument naming `rate` outside [0, 1].
+  FaultSchedule(double rate, std::uint64_t seed) : rate_(rate), rng_(seed * 0x9E3779B97F4A7C15ULL + 0xfa17ULL) {
+    if (!(rate >= 0 && rate <= 1)) throw std::invalid_argument("rate: must be in [0, 1]");
+  }
+  Arm next() {
+    Arm a;
+    if (rate_ > 0 && cycle::detail::uniform01(rng_) < rate_) {
+      a.fault = Fault(1 + int(cycle::detail::splitmix64(rng_) % (kNumFaults - 1)));
+      a.at_call = 1 + int(cycle::detail::splitmix64(rng_) % 4);
+    }
+    return a;
+  }
+
+ private:
+  double rate_;
+  std::uint64_t rng_;
+};
+
+/// What the injected faults cost, per kind: how many were armed and how many fired (a fault at a call
+/// the cycle never made does not fire), how each faulted cycle ended, the cycles lost (the faulted
+/// cycle when it picked nothing, plus the failed cycles after it until a normal one) and the faulted
+/// cycles that fused a view with a wrong pose (must stay 0).
+class FaultLedger {
+ public:
+  struct Stats {
+    int armed = 0, fired = 0, cycles_lost = 0, wrong_pose_used = 0;
+    std::map<std::string, int> outcomes;
+  };
+
+  /// One cycle: the fault armed before it (Fault::none for a normal cycle), whether it fired, the
+  /// cycle's status and whether it fused a view with a wrong pose.
+  void record(const Arm& armed, bool fired, cycle::CycleStatus status, bool wrong_pose) {
+    const bool failed = status == cycle::CycleStatus::sensor_failure || status == cycle::CycleStatus::robot_failure ||
+                        status == cycle::CycleStatus::processing_failure;
+    if (open_ >= 0) {  // the cycles after a fault that still fail (e.g. the recovery)
+      if (failed) ++stats_[open_].cycles_lost;
+      else open_ = -1;
+    }
+    if (armed.fault == Fault::none) return;
+    Stats& f = stats_[int(armed.fault)];
+    ++f.armed;
+    if (!fired) return;
+    ++f.fired;
+    ++f.outcomes[cycle::to_string(status)];
+    f.wrong_pose_used += wrong_pose;
+    if (status != cycle::CycleStatus::picked) ++f.cycles_lost;  // the faulted cycle picked nothing
+    if (failed) open_ = int(armed.fault);
+  }
+  /// Adds another run's counts (a run's trailing failures stay with that run).
+  void merge(const FaultLedger& o) {
+    for (int k = 0; k < kNumFaults; ++k) {
+      Stats& a = stats_[k];
+      const Stats& b = o.stats_[k];
+      a.armed += b.armed, a.fired += b.fired, a.cycles_lost += b.cycles_lost, a.wrong_pose_used += b.wrong_pose_used;
+      for (const auto& [name, n] : b.outcomes) a.outcomes[name] += n;
+    }
+  }
+  const Stats& operator[](Fault f) const { return stats_[int(f)]; }
+  int fired() const {
+    int n = 0;
+    for (const auto& s : stats_) n += s.fired;
+    return n;
+  }
+  /// {"frame_lost": {"armed": .., "fired": .., "cycles_lost": .., "wrong_pose_used": .., "outcomes": {..}}, ...}
+  std::string json() const {
+    std::string js = "{";
+    for (int f = 1; f < kNumFaults; ++f) {
+      const Stats& s = stats_[f];
+      js += std::string(f > 1 ? ", " : "") + "\"" + to_string(Fault(f)) + "\": {\"armed\": " + std::to_string(s.armed) +
+            ", \"fired\": " + std::to_string(s.fired) + ", \"cycles_lost\": " + std::to_string(s.cycles_lost) +
+            ", \"wrong_pose_used\": " + std::to_string(s.wrong_pose_used) + ", \"outcomes\": {";
+      bool first = true;
+      for (const auto& [name, n] : s.outcomes) js += std::string(first ? "" : ", ") + "\"" + name + "\": " + std::to_string(n), first = false;
+      js += "}}";
+    }
+    return js + "}";
+  }
+
+ private:
+  Stats stats_[kNumFaults];
+  int open_ = -1;
+};
+
+}  // namespace binpick::simcell
