@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <thread>
 
@@ -290,6 +291,14 @@ TEST(Pipeline, RejectsBadSettings) {
   ps = {};
   ps.sensing_speed_percent = 120;
   EXPECT_THROW(TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps), std::invalid_argument);
+  ps = {};
+  ps.fixed_compute_time = std::numeric_limits<double>::quiet_NaN();
+  try {
+    TestCell::Pipeline p(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps);
+    ADD_FAILURE() << "a NaN fixed_compute_time was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'fixed_compute_time'"), std::string::npos) << e.what();
+  }
 }
 
 // ---------------------------------------------------------------------------------------------------
