@@ -216,13 +216,8 @@ PointCloud<Scalar> subsample_with_normals(const DepthImageView<Scalar>& depth, c
   const std::size_t kept = std::size_t((w + stride - 1) / stride) * std::size_t((h + stride - 1) / stride);
   out.points.reserve(kept);
   out.normals.reserve(kept);
-  // backproject_organized's point at (u, v): zero when there is no measurement or it is not finite.
-  const auto point = [&](int u, int v) {
-    const Scalar z = depth.depth(u, v);
-    if (!(z > Scalar(0))) return Vector3<Scalar>::Zero().eval();
-    const Vector3<Scalar> p = camera.backproject(Scalar(u), Scalar(v), z).template cast<Scalar>();
-    return p.allFinite() ? p : Vector3<Scalar>::Zero().eval();
-  };
+  // backproject_organized's point at (u, v).
+  const auto point = [&](int u, int v) { return registration_detail::backproject_or_zero<Scalar>(camera, u, v, depth.depth(u, v)); };
   // The centre and its four neighbours laid out for organized_normal_interior: offsets ±1 (u), ±2 (v).
   Vector3<Scalar> patch[5];
   for (int v = 0; v < h; v += stride)

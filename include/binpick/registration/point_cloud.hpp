@@ -41,6 +41,17 @@ struct OrganizedCloud {
   bool has_normals() const { return !points.empty() && normals.size() == points.size(); }
 };
 
+namespace registration_detail {
+/// The point of pixel (u, v) at depth z [m] in the camera frame, or zero when there is no measurement
+/// (z <= 0, NaN) or the camera gives no finite point: the one backprojection rule of every cloud here.
+template <typename Scalar, typename Camera>
+Vector3<Scalar> backproject_or_zero(const Camera& camera, int u, int v, Scalar z) {
+  if (!(z > Scalar(0))) return Vector3<Scalar>::Zero();
+  const Vector3<Scalar> p = camera.backproject(Scalar(u), Scalar(v), z).template cast<Scalar>();
+  return p.allFinite() ? p : Vector3<Scalar>::Zero().eval();
+}
+}  // namespace registration_detail
+
 /// One point per pixel of every `stride`-th row and column of `depth` (stride 1: every pixel; the
 /// cloud is then ceil(width/stride) × ceil(height/stride)), in the camera frame [m]. Throws
 /// std::invalid_argument when the image size differs from the camera's or stride < 1.
@@ -63,11 +74,7 @@ OrganizedCloud<Scalar> backproject_organized(const DepthImageView<Scalar>& depth
       Vector3<Scalar>* out = cloud.points.data() + cloud.index(0, v);
       for (int u = 0; u < cloud.width; ++u) {
         const Scalar z = DepthImageView<Scalar>::decode(row[std::size_t(u) * std::size_t(stride)], scale);
-        if (z > Scalar(0)) {
-          const Vector3<Scalar> p =
-              camera.backproject(Scalar(u * stride), Scalar(v * stride), z).template cast<Scalar>();
-          if (p.allFinite()) out[u] = p;
-        }
+        out[u] = registration_detail::backproject_or_zero<Scalar>(camera, u * stride, v * stride, z);
       }
     }
   });
@@ -99,11 +106,8 @@ PointCloud<Scalar> backproject_points(const DepthImageView<Scalar>& depth, const
   cloud.points.reserve(std::size_t(depth.width() / stride + 1) * std::size_t(depth.height() / stride + 1));
   for (int v = 0; v < depth.height(); v += stride)
     for (int u = 0; u < depth.width(); u += stride) {
-      const Scalar z = depth.depth(u, v);
-      if (z > Scalar(0)) {
-        const Vector3<Scalar> p = camera.backproject(Scalar(u), Scalar(v), z).template cast<Scalar>();
-        if (p.allFinite()) cloud.points.push_back(p);
-      }
+      const Vector3<Scalar> p = registration_detail::backproject_or_zero<Scalar>(camera, u, v, depth.depth(u, v));
+      if (p.z() > Scalar(0)) cloud.points.push_back(p);
     }
   return cloud;
 }
