@@ -609,29 +609,30 @@ class PickingPipeline {
       confidences.push_back(std::max(Scalar(0), o.confidence_percent));
     }
     out.objects_base = positions;
-    // The most confident object whose approach is within the tilt limit (objects come sorted): first
-    // those whose grasp the estimator found clear and away from the grips that failed since the last
-    // success, then clear ones anywhere, then any.
+    // The object to grasp, among those whose grasp lies above the floor and within the tilt limit: the
+    // first (objects come sorted by confidence) of the best tier — 0: the estimator found its grasp clear
+    // and it is away from the grips that failed since the last success, 1: clear, 2: any.
     std::size_t chosen = active_vision::no_grasped_object;
-    for (int pass = 0; pass < 3 && chosen == active_vision::no_grasped_object; ++pass)
-      for (std::size_t k = 0; k < est.objects.size(); ++k) {
-        const Pose T = T_base_ref * est.objects[k].T_camera_grasp;
-        if (!detail::is_rigid_finite(T)) continue;
-        if (T.translation().z() - s_.bin_center.z() < s_.min_grasp_height) continue;
-        const bool near_failed = std::any_of(failed_grasps_.begin(), failed_grasps_.end(), [&](const Vec3& f) {
-          return (f - T.translation()).norm() < s_.retry_distance;
-        });
-        if (pass == 0 && near_failed) continue;
-        if (pass < 2 && !est.objects[k].grasp_clear) continue;
-        const Scalar down = -T.linear().col(2).z();
-        if (down >= std::cos(s_.max_approach_tilt)) {
-          chosen = k;
-          out.T_base_grasp = T;
-          out.gripper = est.objects[k].gripper;
-          out.grasp_clear = est.objects[k].grasp_clear;
-          break;
-        }
+    int best_tier = 3;
+    for (std::size_t k = 0; k < est.objects.size() && best_tier > 0; ++k) {
+      const Pose T = T_base_ref * est.objects[k].T_camera_grasp;
+      if (!detail::is_rigid_finite(T)) continue;
+      if (T.translation().z() - s_.bin_center.z() < s_.min_grasp_height) continue;
+      if (-T.linear().col(2).z() < std::cos(s_.max_approach_tilt)) continue;
+      const bool near_failed = std::any_of(failed_grasps_.begin(), failed_grasps_.end(), [&](const Vec3& f) {
+        return (f - T.translation()).norm() < s_.retry_distance;
+      });
+      const int tier = !est.objects[k].grasp_clear ? 2 : near_failed ? 1 : 0;
+      if (tier < best_tier) {
+        best_tier = tier;
+        chosen = k;
+        out.T_base_grasp = T;
       }
+    }
+    if (chosen != active_vision::no_grasped_object) {
+      out.gripper = est.objects[chosen].gripper;
+      out.grasp_clear = est.objects[chosen].grasp_clear;
+    }
     if (chosen == active_vision::no_grasped_object) {
       out.has_grasp = false;
       out.status = CycleStatus::nothing_recognized;
