@@ -49,7 +49,7 @@ class FakeSensor {
       geometry_valid_ = true;
     }
     const Isometry3<Scalar> T_base_camera = camera_pose_in_base(robot_->true_flange_pose(t), T_flange_camera_);
-    memory_.push_back({sensor_.render(geometry_, T_base_camera, next_index_), t});
+    memory_.push_back({sensor_.render(geometry_, T_base_camera, next_index_, workspace_), t});
     ++next_index_;
     return t;
   }
@@ -83,6 +83,7 @@ class FakeSensor {
   const SimClock* clock_;
   Isometry3<Scalar> T_flange_camera_;
   StereoSensor<Scalar> sensor_;
+  RenderWorkspace<Scalar> workspace_;  // render's scratch memory, kept across frames
   SceneGeometry<Scalar> geometry_;
   bool geometry_valid_ = false;
   std::uint64_t revision_ = 0;

@@ -129,6 +129,15 @@ struct DepthGrid {
   bool valid(std::size_t k) const { return points[k].z() > Scalar(0); }
 };
 
+/// Per-call scratch memory of the estimator, kept across calls by estimate() (the grid is about 10 MB
+/// at 640 px wide: allocating it every cycle churns the heap of a shift-long run).
+template <typename Scalar>
+struct EstimatorWorkspace {
+  DepthGrid<Scalar> grid;
+  std::vector<std::int32_t> label;  // segment id per cell
+  std::vector<std::uint8_t> owned;  // cell claimed by a kept hypothesis
+};
+
 template <typename Scalar>
 struct Hypothesis {
   int model = -1;
@@ -205,21 +214,45 @@ class ReferenceEstimator {
 
   /// The PoseEstimator entry point. `RecognizedObject::part_type` is `int(PartType)` of the model.
   cycle::EstimationResult<Scalar> estimate(const cycle::EstimatorInput<Scalar, Camera>& input) {
-    return estimate_detailed(input).result;
+    return run(input, workspace_).result;
   }
 
   /// estimate() with per-object diagnostics and the runtime. Throws std::invalid_argument naming
   /// `camera` when input.camera is null and `depth` when its size differs from the camera's. Depth
   /// without valid pixels (all 0 or NaN) gives status no_objects.
   ReferenceEstimation<Scalar> estimate_detailed(const cycle::EstimatorInput<Scalar, Camera>& input) const {
+    detail::EstimatorWorkspace<Scalar> ws;
+    return run(input, ws);
+  }
+
+  /// Confidence [%] of a given pose of model `model_index` on the input (step 4 alone): what the
+  /// estimator would report for that pose. Throws like estimate_detailed and for a bad index.
+  Scalar score_pose(const cycle::EstimatorInput<Scalar, Camera>& input, std::size_t model_index,
+                    const Isometry3<Scalar>& T_camera_object) const {
+    require(input.camera != nullptr, "camera", "input.camera must not be null");
+    require(model_index < models_.size(), "model_index", "out of range");
+    require(input.depth.width() == input.camera->width() && input.depth.height() == input.camera->height(), "depth",
+            "image size differs from the camera's");
+    detail::DepthGrid<Scalar> grid;
+    make_grid(input, *input.camera, grid);
+    detail::Hypothesis<Scalar> h;
+    h.model = int(model_index);
+    h.T_camera_object = T_camera_object;
+    score(grid, *input.camera, models_[model_index], h);
+    return h.confidence;
+  }
+
+ private:
+  ReferenceEstimation<Scalar> run(const cycle::EstimatorInput<Scalar, Camera>& input, detail::EstimatorWorkspace<Scalar>& ws) const {
     const auto t0 = std::chrono::steady_clock::now();
     require(input.camera != nullptr, "camera", "input.camera must not be null");
     const Camera& cam = *input.camera;
     require(input.depth.width() == cam.width() && input.depth.height() == cam.height(), "depth",
             "image size differs from the camera's");
     ReferenceEstimation<Scalar> out;
-    const detail::DepthGrid<Scalar> grid = make_grid(input, cam);
-    std::vector<std::vector<std::uint32_t>> candidates = segment(grid);
+    make_grid(input, cam, ws.grid);
+    const detail::DepthGrid<Scalar>& grid = ws.grid;
+    std::vector<std::vector<std::uint32_t>> candidates = segment(grid, ws.label);
     out.candidates = int(candidates.size());
 
     std::vector<detail::Hypothesis<Scalar>> best(candidates.size());
@@ -234,7 +267,8 @@ class ReferenceEstimator {
     std::vector<std::size_t> order(best.size());
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return best[a].confidence > best[b].confidence; });
-    std::vector<std::uint8_t> owned(grid.points.size(), 0);
+    std::vector<std::uint8_t>& owned = ws.owned;
+    owned.assign(grid.points.size(), 0);
     for (const std::size_t k : order) {
       const auto& h = best[k];
       if (h.model < 0 || !(h.confidence >= s_.min_confidence) || h.supported_cells.empty()) continue;
@@ -262,23 +296,6 @@ class ReferenceEstimator {
     return out;
   }
 
-  /// Confidence [%] of a given pose of model `model_index` on the input (step 4 alone): what the
-  /// estimator would report for that pose. Throws like estimate_detailed and for a bad index.
-  Scalar score_pose(const cycle::EstimatorInput<Scalar, Camera>& input, std::size_t model_index,
-                    const Isometry3<Scalar>& T_camera_object) const {
-    require(input.camera != nullptr, "camera", "input.camera must not be null");
-    require(model_index < models_.size(), "model_index", "out of range");
-    require(input.depth.width() == input.camera->width() && input.depth.height() == input.camera->height(), "depth",
-            "image size differs from the camera's");
-    const auto grid = make_grid(input, *input.camera);
-    detail::Hypothesis<Scalar> h;
-    h.model = int(model_index);
-    h.T_camera_object = T_camera_object;
-    score(grid, *input.camera, models_[model_index], h);
-    return h.confidence;
-  }
-
- private:
   static Scalar surface_area(const TriangleMesh<Scalar>& m) {
     Scalar a = 0;
     for (const auto& t : m.triangles)
@@ -293,8 +310,7 @@ class ReferenceEstimator {
   }
 
   // 1. The grid and its normals.
-  detail::DepthGrid<Scalar> make_grid(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam) const {
-    detail::DepthGrid<Scalar> g;
+  void make_grid(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam, detail::DepthGrid<Scalar>& g) const {
     g.stride = stride_for(cam);
     g.width = (cam.width() + g.stride - 1) / g.stride;
     g.height = (cam.height() + g.stride - 1) / g.stride;
@@ -357,13 +373,12 @@ class ReferenceEstimator {
         if (nrm.dot(c) > Scalar(0)) nrm = -nrm;
         g.normals[k] = nrm;
       }
-    return g;
   }
 
   // 2. Depth-continuous, non-concave segments; split when larger than a part; top-most first.
-  std::vector<std::vector<std::uint32_t>> segment(const detail::DepthGrid<Scalar>& g) const {
+  std::vector<std::vector<std::uint32_t>> segment(const detail::DepthGrid<Scalar>& g, std::vector<std::int32_t>& label) const {
     const std::size_t n = g.points.size();
-    std::vector<std::int32_t> label(n, -1);
+    label.assign(n, -1);
     std::vector<std::vector<std::uint32_t>> segments;
     std::vector<std::uint32_t> stack;
     auto linked = [&](std::size_t a, std::size_t b) {
@@ -685,25 +700,23 @@ class ReferenceEstimator {
     const bool have_up = input.up_camera.allFinite() && up_norm > Scalar(0.5);
     const Vec3 down = have_up ? Vec3(-input.up_camera / up_norm) : Vec3::Zero();
     struct Option {
+      Isometry3<Scalar> T_camera_grasp;
       Scalar key;       // angle to the preferred approach [rad]
       bool in_sight;    // within max_approach_angle of the line of sight
-      std::size_t sym, grasp;
+      std::size_t grasp;
     };
     std::vector<Option> options;
     options.reserve(syms.size() * grasps.size());
-    auto pose_of = [&](std::size_t sym, std::size_t k) {
-      Isometry3<Scalar> T_sym = Isometry3<Scalar>::Identity();
-      T_sym.linear() = syms[sym];  // symmetries fix the part origin (estimator_symmetry.hpp)
-      return Isometry3<Scalar>(T_camera_object * T_sym * grasps[k].T_part_grasp);
-    };
-    for (std::size_t si = 0; si < syms.size(); ++si)
+    for (const Mat3& sym : syms)
       for (std::size_t k = 0; k < grasps.size(); ++k) {
-        const Isometry3<Scalar> T = pose_of(si, k);
+        Isometry3<Scalar> T_sym = Isometry3<Scalar>::Identity();
+        T_sym.linear() = sym;  // symmetries fix the part origin (estimator_symmetry.hpp)
+        const Isometry3<Scalar> T = T_camera_object * T_sym * grasps[k].T_part_grasp;
         const Vec3 sight = T.translation().normalized();
         const Vec3 a = T.linear().col(2);
         const Scalar sight_angle = std::acos(std::clamp(a.dot(sight), Scalar(-1), Scalar(1)));
         const Scalar key = have_up ? std::acos(std::clamp(a.dot(down), Scalar(-1), Scalar(1))) : sight_angle;
-        options.push_back({key, sight_angle <= s_.max_approach_angle, si, k});
+        options.push_back({T, key, sight_angle <= s_.max_approach_angle, k});
       }
     if (options.empty()) {
       d.grasp_reachable = false;
@@ -717,14 +730,14 @@ class ReferenceEstimator {
     const Option* chosen = nullptr;
     for (const Option& o : options) {
       if (!o.in_sight) break;
-      if (gripper_collides(input, cam, pose_of(o.sym, o.grasp), pm.model.gripper, grasps[o.grasp].opening)) continue;
+      if (gripper_collides(input, cam, o.T_camera_grasp, pm.model.gripper, grasps[o.grasp].opening)) continue;
       chosen = &o;
       break;
     }
     d.grasp_reachable = chosen != nullptr;
     if (!chosen) chosen = &options.front();  // flagged: the best aligned one
     d.grasp_index = int(chosen->grasp);
-    T_camera_grasp = pose_of(chosen->sym, chosen->grasp);
+    T_camera_grasp = chosen->T_camera_grasp;
   }
 
   bool gripper_collides(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
@@ -741,6 +754,7 @@ class ReferenceEstimator {
 
   ReferenceEstimatorSettings<Scalar> s_;
   std::vector<detail::PreparedModel<Scalar>> models_;
+  detail::EstimatorWorkspace<Scalar> workspace_;  // estimate()'s scratch memory
   Scalar max_area_ = 0, max_radius_ = 0;
 };
 

@@ -239,7 +239,21 @@ inline double unit_variance_uniform(std::uint64_t h, int which) {
 
 }  // namespace detail
 
-/// The simulated stereo camera. Thread-safe to share: render() is const.
+/// Scratch memory of StereoSensor::render. A caller that renders every cycle keeps one (FakeSensor
+/// does), so the per-pixel buffers are allocated once instead of per frame and a shift-long run's heap
+/// does not churn through image-sized blocks. One workspace per thread that renders.
+template <typename Scalar>
+struct RenderWorkspace {
+  DepthImage<Scalar> truth;
+  std::vector<PixelStatus> status;
+  std::vector<std::int16_t> part;
+  std::vector<Scalar> speckle, rowmin;
+  std::vector<std::uint8_t> row, full, label;
+  std::vector<std::int32_t> stack, members;
+};
+
+/// The simulated stereo camera. Thread-safe to share: render() is const (give each thread its own
+/// RenderWorkspace).
 template <typename Scalar>
 class StereoSensor {
  public:
@@ -265,6 +279,13 @@ class StereoSensor {
 
   StereoFrame<Scalar> render(const SceneGeometry<Scalar>& geo, const Isometry3<Scalar>& T_base_camera,
                              std::uint64_t frame_index) const {
+    RenderWorkspace<Scalar> ws;
+    return render(geo, T_base_camera, frame_index, ws);
+  }
+
+  /// render() with caller-kept scratch memory (the same frame as without it).
+  StereoFrame<Scalar> render(const SceneGeometry<Scalar>& geo, const Isometry3<Scalar>& T_base_camera,
+                             std::uint64_t frame_index, RenderWorkspace<Scalar>& ws) const {
     require_valid_pose(T_base_camera, "T_base_camera");
     const int W = s_.width, H = s_.height;
     const std::size_t N = std::size_t(W) * std::size_t(H);
@@ -272,9 +293,12 @@ class StereoSensor {
     f.T_base_camera = T_base_camera;
     f.frame_index = frame_index;
     f.depth.resize(W, H);
-    DepthImage<Scalar> truth(W, H);
-    std::vector<PixelStatus> status(N, PixelStatus::no_surface);
-    std::vector<std::int16_t> part(N, -1);
+    DepthImage<Scalar>& truth = ws.truth;
+    truth.resize(W, H);
+    std::vector<PixelStatus>& status = ws.status;
+    status.assign(N, PixelStatus::no_surface);
+    std::vector<std::int16_t>& part = ws.part;
+    part.assign(N, -1);
     const std::uint64_t key = sim::detail::hash_keys(s_.seed, frame_index);
 
     int threads = s_.num_threads;
@@ -287,7 +311,8 @@ class StereoSensor {
     const int cell = scaled_px(s_.errors.speckle_cell_px);
     const int gw = (W + cell - 1) / cell, gh = (H + cell - 1) / cell;
     const std::size_t cells = std::size_t(gw) * std::size_t(gh);
-    std::vector<Scalar> speckle(2 * cells);
+    std::vector<Scalar>& speckle = ws.speckle;
+    speckle.resize(2 * cells);
     for (std::size_t c = 0; c < cells; ++c) {
       sim::detail::Rng rng(sim::detail::hash_keys(key, detail::kSpeckle, c));
       const double common = s_.errors.speckle_sigma * rng.normal();
@@ -301,9 +326,9 @@ class StereoSensor {
       for (int u = 0; u < W; ++u) shade_pixel(ctx, u, v, f.depth, truth, status, part);
 
     if (s_.errors.enabled) {
-      grow_saturation(status, f.depth);
-      edges(key, truth, status, f.depth);
-      speckle_filter(status, f.depth);
+      grow_saturation(status, f.depth, ws);
+      edges(key, truth, status, f.depth, ws);
+      speckle_filter(status, f.depth, ws);
     }
     for (std::size_t i = 0; i < N; ++i) {
       const Scalar z = f.depth.data()[i], zt = truth.data()[i];
@@ -314,10 +339,10 @@ class StereoSensor {
       f.ghost_pixels += status[i] == PixelStatus::ghost;
       f.outlier_pixels += z > Scalar(0) && std::abs(z - zt) > Scalar(0.002);
     }
-    if (s_.diagnostics) {
-      f.true_depth = std::move(truth);
-      f.status = std::move(status);
-      f.part_index = std::move(part);
+    if (s_.diagnostics) {  // copies: the workspace keeps its buffers
+      f.true_depth = truth;
+      f.status = status;
+      f.part_index = part;
     }
     return f;
   }
@@ -483,11 +508,14 @@ class StereoSensor {
   }
 
   /// Saturated pixels bloom into their neighbours (square dilation, separable).
-  void grow_saturation(std::vector<PixelStatus>& status, DepthImage<Scalar>& depth) const {
+  void grow_saturation(std::vector<PixelStatus>& status, DepthImage<Scalar>& depth, RenderWorkspace<Scalar>& ws) const {
     const int g = s_.errors.saturation_growth_px == 0 ? 0 : scaled_px(s_.errors.saturation_growth_px);
     if (g == 0) return;
     const int W = s_.width, H = s_.height;
-    std::vector<std::uint8_t> row(std::size_t(W) * std::size_t(H), 0), full(row.size(), 0);
+    std::vector<std::uint8_t>& row = ws.row;
+    std::vector<std::uint8_t>& full = ws.full;
+    row.assign(std::size_t(W) * std::size_t(H), 0);
+    full.assign(row.size(), 0);
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) {
         if (status[std::size_t(v) * std::size_t(W) + std::size_t(u)] != PixelStatus::saturated) continue;
@@ -507,13 +535,14 @@ class StereoSensor {
 
   /// Far side of a depth jump within half a matching window: foreground value, mix, or hole.
   void edges(std::uint64_t key, const DepthImage<Scalar>& truth, std::vector<PixelStatus>& status,
-             DepthImage<Scalar>& depth) const {
+             DepthImage<Scalar>& depth, RenderWorkspace<Scalar>& ws) const {
     const auto& e = s_.errors;
     const int h = scaled_px(e.match_window_px) / 2;
     if (h == 0) return;
     const int W = s_.width, H = s_.height;
     const Scalar inf = std::numeric_limits<Scalar>::infinity();
-    std::vector<Scalar> rowmin(std::size_t(W) * std::size_t(H));  // nearest true depth within ±h in the row
+    std::vector<Scalar>& rowmin = ws.rowmin;  // nearest true depth within ±h in the row
+    rowmin.resize(std::size_t(W) * std::size_t(H));
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) {
         Scalar m = inf;
@@ -546,15 +575,17 @@ class StereoSensor {
   }
 
   /// Drops 4-connected regions (depth steps <= max_diff) smaller than the minimum size.
-  void speckle_filter(std::vector<PixelStatus>& status, DepthImage<Scalar>& depth) const {
+  void speckle_filter(std::vector<PixelStatus>& status, DepthImage<Scalar>& depth, RenderWorkspace<Scalar>& ws) const {
     const auto& e = s_.errors;
     if (e.speckle_filter_min_region_px == 0) return;
     const std::size_t min_region = std::size_t(std::max<long>(
         1, std::lround(e.speckle_filter_min_region_px * (s_.width / 1280.0) * (s_.width / 1280.0))));
     const int W = s_.width, H = s_.height;
     const Scalar fb = camera_.fx() * s_.baseline;
-    std::vector<std::uint8_t> label(std::size_t(W) * std::size_t(H), 0);  // 1 = visited
-    std::vector<std::int32_t> stack, members;
+    std::vector<std::uint8_t>& label = ws.label;  // 1 = visited
+    label.assign(std::size_t(W) * std::size_t(H), 0);
+    std::vector<std::int32_t>& stack = ws.stack;
+    std::vector<std::int32_t>& members = ws.members;
     for (std::size_t seed = 0; seed < label.size(); ++seed) {
       if (label[seed] || !(depth.data()[seed] > Scalar(0))) continue;
       members.clear();
