@@ -172,7 +172,13 @@ TEST(ReferenceEstimator, FusedMetalDepthFindsMorePartsThanOneView) {
     Estimator est(scene.model(PartType::circle_nut), settings_for(camera));
     auto count = [&](const DepthImage<float>& depth) {
       int n = 0;
-      for (const auto& o : est.estimate(input_of(depth, camera)).objects) n += correct(match(scene, kReference, o), 3, 5);
+      const auto objects = est.estimate(input_of(depth, camera)).objects;
+      // estimate() keeps its scratch memory from the previous call; estimate_detailed() starts afresh.
+      const auto fresh = est.estimate_detailed(input_of(depth, camera)).result.objects;
+      EXPECT_EQ(objects.size(), fresh.size());
+      for (std::size_t k = 0; k < std::min(objects.size(), fresh.size()); ++k)
+        EXPECT_TRUE(objects[k].T_camera_grasp.matrix() == fresh[k].T_camera_grasp.matrix()) << "object " << k;
+      for (const auto& o : objects) n += correct(match(scene, kReference, o), 3, 5);
       return n;
     };
     single_found += count(frames[0].depth);

@@ -137,6 +137,27 @@ TEST(StereoSensor, FramesAreReproducibleAndIndependentOfThreads) {
   EXPECT_GT(a.valid_pixels, 0u);
 }
 
+TEST(StereoSensor, AKeptWorkspaceGivesTheSameFramesAsAFreshOne) {
+  SceneSettings<float> ss;
+  ss.part_type = PartType::small_screw;
+  const auto scene = Scene<float>::generate(ss, 5);
+  auto s = small_settings();
+  s.diagnostics = true;
+  const StereoSensor<float> sensor(s);
+  const auto geo = SceneGeometry<float>::build(scene, s.errors.bin_material, s.errors.table_material);
+  RenderWorkspace<float> ws;
+  for (const std::uint64_t index : {7u, 8u, 7u}) {  // the workspace holds the previous frame's buffers
+    const auto T = look_at(Eigen::Vector3f(0.02f * float(index - 6), 0, 0.3f), Eigen::Vector3f(0, 0, 0));
+    const auto kept = sensor.render(geo, T, index, ws), fresh = sensor.render(scene, T, index);
+    EXPECT_EQ(kept.depth.storage(), fresh.depth.storage()) << "frame " << index;
+    EXPECT_EQ(kept.true_depth.storage(), fresh.true_depth.storage()) << "frame " << index;
+    EXPECT_EQ(kept.status, fresh.status) << "frame " << index;
+    EXPECT_EQ(kept.part_index, fresh.part_index) << "frame " << index;
+    EXPECT_EQ(kept.valid_pixels, fresh.valid_pixels);
+    EXPECT_GT(kept.valid_pixels, 0u);
+  }
+}
+
 TEST(StereoSensor, DropoutsRiseAsTheViewNearsTheSpecularDirection) {
   // One polished nut lying flat: its top face mirrors the projector into the cameras when seen
   // head-on; the share of highlight dropouts (saturation, bloom, left/right mismatch) on it must
