@@ -8,13 +8,16 @@
 // Resident memory is what the operating system sees; the live heap (allocator bytes in use) is what a
 // leak would grow. The two differ by the free memory the allocator keeps: glibc raises its mmap and
 // trim thresholds after the first large free, so per-cycle image buffers are recycled inside the
-// heap and the heap's high-water mark stays resident. Both are reported; resident memory is checked.
+// heap, where fragmentation moves resident memory from cycle to cycle. The simulated cell therefore
+// keeps its image-sized scratch memory across cycles (the sensor's RenderWorkspace, the estimator's
+// grid); with per-cycle scratch allocations, 200 cycles grew resident memory 1.4 % while the live heap
+// stayed flat. Both are reported; resident memory is checked.
 //
 //   binpick_soak --cycles 2000 --warmup 100 --fault-rate 0.15   the documented soak (~25 min CPU)
 //   binpick_soak --cycles 200 --warmup 100 --fault-rate 0.15    the CI run (.ci/run)
 // Both at 640x512: at 320x256 the estimator rarely finds the lone screw, the bin is seldom emptied and
-// the refill path goes untested (200 cycles at 640x512: 43 picks, 43 refills, resident memory +0.2 %
-// after warm-up with the default --mmap-threshold, +1.4 % with glibc's dynamic threshold).
+// the refill path goes untested. --mmap-threshold B makes glibc map blocks of B bytes or more and
+// return them on free (off by default: the run measures the allocator as a cell would use it).
 #include <dirent.h>
 #include <unistd.h>
 #if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
@@ -49,10 +52,9 @@ struct Options {
   double fault_rate = 0;
   double max_rss_growth = 0.01;  // [-] failing threshold after warm-up
   // [B] glibc's mmap threshold: blocks this large are mapped on allocation and returned to the system on
-  // free. Without it glibc raises its threshold after the first large free and recycles image buffers
-  // inside the heap, where fragmentation moves resident memory by a few hundred kB from cycle to cycle
-  // (200 cycles at 640x512: +1.4 %) while the live heap stays flat. 0 keeps glibc's dynamic default.
-  long mmap_threshold = 512 * 1024;
+  // free (every cycle then touches fresh pages: about twice the processing time). 0 keeps glibc's
+  // dynamic default.
+  long mmap_threshold = 0;
   std::string trace;             // per-cycle CSV (memory and time curves), empty = none
 };
 
@@ -146,7 +148,7 @@ int main(int argc, char** argv) {
       else if (a == "--help" || a == "-h") {
         std::printf("usage: binpick_soak [--cycles N=200] [--parts P=1] [--stuck K=40] [--seed S=1] [--fault-rate F=0]\n"
                     "                    [--warmup W=N/10] [--threads T=1] [--max-rss-growth G=0.01]\n"
-                    "                    [--resolution 640x512|320x256] [--trace FILE.csv] [--mmap-threshold B=524288]\n"
+                    "                    [--resolution 640x512|320x256] [--trace FILE.csv] [--mmap-threshold B=0]\n"
                     "Runs N picking cycles of the simulated cell (small screws, 640x512), refilling the bin with P\n"
                     "parts when it is empty, and swapping it for a fresh fill after K cycles without a pick; with\n"
                     "F > 0 a driver fault is injected in a cycle with probability F (seeded). --trace writes one\n"
