@@ -23,7 +23,7 @@ cmp -s "$tmp/a" "$tmp/b" || { diff "$tmp/a" "$tmp/b"; fail "fusion fingerprints 
 if [ "$simtool" != "-" ]; then
   for run in 1 2; do
     "$simtool" --types circle_nut --runs 1 --parts 3 --strategies ours,A,B,C --max-failures 3 --jobs 2 \
-      --fault-rate 0.5 --compute-time 60 --seed 2 --csv "$tmp/sim$run.csv" --json 2>/dev/null | strip_timing >"$tmp/sim$run.json" \
+      --fault-rate 0.5 --compute-time 60 --seed 2 --resolution 320x256 --csv "$tmp/sim$run.csv" --json 2>/dev/null | strip_timing >"$tmp/sim$run.json" \
       || fail "binpick_sim run $run"
     # Columns 18-20 are the measured fusion, estimation and planning times.
     cut -d, -f1-17,21- "$tmp/sim$run.csv" >"$tmp/sim$run.rows"
