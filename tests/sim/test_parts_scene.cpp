@@ -135,6 +135,27 @@ TEST(Parts, MeshesAreClosedAndInsideTheirCollisionSpheres) {
   }
 }
 
+// A registered grasp must be physically possible: the fingers, at the grasp's own opening and at the
+// widest one (the simulated gripper opens to it before approaching), stay outside their own part.
+TEST(Parts, FingersOfEveryGraspStayOutsideTheirPart) {
+  for (int k = 0; k < kNumPartTypes; ++k) {
+    const auto part = make_part<double>(PartType(k));
+    if (part.gripper != cycle::GripperKind::two_finger) continue;
+    double widest = 0;
+    for (const auto& g : part.grasps) widest = std::max(widest, g.opening);
+    const GripperGeometry<double> gripper;
+    for (std::size_t i = 0; i < part.grasps.size(); ++i) {
+      const auto& g = part.grasps[i];
+      for (const double opening : {g.opening, widest}) {
+        int inside = 0;
+        for (const auto& q : sim::detail::gripper_samples(gripper, part.gripper, opening, 0.0005))
+          inside += point_inside_mesh(part.mesh, Eigen::Vector3d(g.T_part_grasp * q));
+        EXPECT_EQ(inside, 0) << part.name << " grasp " << i << " opening " << opening;
+      }
+    }
+  }
+}
+
 TEST(Parts, InsideTestSeesTheSolid) {
   const auto nut = make_part<double>(PartType::circle_nut);
   // Origin is in the bore (not solid); a point in the annulus at mid-height is solid.

@@ -192,9 +192,13 @@ PartModel<Scalar> make_part(PartType type) {
       detail::cover_box<Scalar>(p.spheres, V3(-10.5, -7, -5.85) * mm, V3(10.5, 10, 5.85) * mm, Scalar(3.0) * mm);
       p.rest_orientations = {Matrix3<Scalar>::Identity(), detail::rot<Scalar>(X, half_pi),
                              detail::rot<Scalar>(X, -half_pi)};
-      p.grasps = {detail::grasp<Scalar>(V3::Zero(), -Z, Y, Scalar(14) * mm),
-                  detail::grasp<Scalar>(V3::Zero(), Z, Y, Scalar(14) * mm),
-                  detail::grasp<Scalar>(V3::Zero(), -Y, Z, Scalar(11.7) * mm)};
+      // Lying flat (z up or down): end to end along x. Across y the fingers (8 mm wide, centred on the
+      // body) would stand in the latch, which rises to y = 10 over x in [-6, 8].
+      // On a side (latch up or down): across the 11.7 mm thickness, from either side.
+      p.grasps = {detail::grasp<Scalar>(V3::Zero(), -Z, X, Scalar(21) * mm),
+                  detail::grasp<Scalar>(V3::Zero(), Z, X, Scalar(21) * mm),
+                  detail::grasp<Scalar>(V3::Zero(), -Y, Z, Scalar(11.7) * mm),
+                  detail::grasp<Scalar>(V3::Zero(), Y, Z, Scalar(11.7) * mm)};
       p.gripper = cycle::GripperKind::two_finger;
       p.material = {Scalar(0.12), Scalar(0.60), Scalar(0.05), Scalar(0.25), Scalar(0.35)};  // nickel shield
       break;
