@@ -20,9 +20,8 @@
 ///  3. fit: for each candidate and model, the model's principal axes are aligned to the segment's in
 ///     every distinct way (24 signed axis permutations, fewer after removing the part's symmetries),
 ///     each start refined by point-to-plane ICP of a subset of the segment on the model's surface
-///     samples (registration/icp.hpp with a voxel nearest-sample association); the best starts
-///     (confidence × share of the segment explained) are refined with all depth points around the
-///     part, must explain most of their segment, and the best of them by the same key is kept;
+///     samples (registration/icp.hpp with a voxel nearest-sample association); the best starts are
+///     refined with all depth points around the part and must explain most of their segment;
 ///  4. score: the fitted model's sampled surface is z-buffered into the grid; a visible cell is
 ///     supported when the measured depth lies within δ, empty when the sensor sees through it (the
 ///     measured depth lies beyond the model by more than δ): confidence = 100 · (supported − empty) /
@@ -31,8 +30,7 @@
 ///     no kept one by more than max_overlap;
 ///  6. grasp: of the grasps registered on the model, repeated under every symmetry of the part, those
 ///     approaching within max_approach_angle of the line of sight whose gripper shape
-///     (detail::gripper_samples, jaws at the model's widest opening) stays in measured free space
-///     (behind no measured surface but the object's own); the one nearest to straight down (the
+///     (detail::gripper_samples) stays in measured free space; the one nearest to straight down (the
 ///     input's up direction; the line of sight when unknown), else (flagged unreachable, grasp_clear
 ///     false) the best aligned one.
 
@@ -93,7 +91,6 @@ struct ReferenceEstimatorSettings {
   Scalar max_overlap = Scalar(0.3);            ///< share of a hypothesis' supported cells another kept one may own
   Scalar max_approach_angle = Scalar(1.05);    ///< grasp approach vs line of sight [rad] (60°)
   Scalar collision_margin = Scalar(0.001);     ///< gripper samples this far behind a measured surface collide [m]
-  Scalar own_surface_distance = Scalar(0.002); ///< a measured point this near the fitted object is its own surface [m]
   int symmetry_steps = 36;                     ///< a continuous symmetry offers grasps every 2π / this [-]
   GripperGeometry<Scalar> gripper;             ///< shapes checked against the depth
   int num_threads = 1;                         ///< candidates in parallel (0 = all cores); same output for any count
@@ -196,7 +193,6 @@ class ReferenceEstimator {
     require(std::isfinite(s.max_overlap) && s.max_overlap >= 0 && s.max_overlap <= 1, "max_overlap", "must be in [0, 1]");
     require(std::isfinite(s.max_approach_angle) && s.max_approach_angle >= 0, "max_approach_angle", "must be >= 0");
     require(std::isfinite(s.collision_margin) && s.collision_margin >= 0, "collision_margin", "must be >= 0");
-    require(std::isfinite(s.own_surface_distance) && s.own_surface_distance >= 0, "own_surface_distance", "must be >= 0");
     require(s.num_threads >= 0, "num_threads", "must be >= 0 (0 = all cores)");
     require(s.symmetry_steps >= 1, "symmetry_steps", "must be >= 1");
     for (const auto& m : models) {
@@ -500,7 +496,6 @@ class ReferenceEstimator {
   detail::Hypothesis<Scalar> fit_candidate(const detail::DepthGrid<Scalar>& g, const Camera& cam,
                                            const std::vector<std::uint32_t>& cells, int& starts) const {
     detail::Hypothesis<Scalar> best;
-    Scalar best_key = 0;
     std::vector<Vec3> seg;
     seg.reserve(cells.size());
     for (const auto c : cells) seg.push_back(g.points[c]);
@@ -518,7 +513,7 @@ class ReferenceEstimator {
 
     for (std::size_t mi = 0; mi < models_.size(); ++mi) {
       const auto& pm = models_[mi];
-      std::vector<Scalar> fitted_confidence;  // ranking key: confidence × explained share of the segment
+      std::vector<Scalar> fitted_confidence;
       std::vector<Isometry3<Scalar>> fitted;  // T_camera_object per start (sorted through indices: Eigen alignment)
       for (const Mat3& R : start_rotations(E, pm)) {
         ++starts;
@@ -544,7 +539,7 @@ class ReferenceEstimator {
         h2.model = int(mi);
         h2.T_camera_object = registration_detail::orthonormalized(Isometry3<Scalar>(r.T_target_source.inverse(Eigen::Isometry)));
         score(g, cam, pm, h2, false);
-        fitted_confidence.push_back(h2.confidence * explained_share(pm, h2.T_camera_object, coarse_src.points));
+        fitted_confidence.push_back(h2.confidence);
         fitted.push_back(h2.T_camera_object);
       }
       std::vector<std::size_t> order(fitted.size());
@@ -556,33 +551,18 @@ class ReferenceEstimator {
         h2.model = int(mi);
         h2.T_camera_object = refine(g, cam, pm, fitted[order[k]]);
         // The part must explain its own segment (a part-sized piece of a bin rim does not).
-        const Scalar explained = explained_share(pm, h2.T_camera_object, seg);
-        if (explained < s_.min_segment_explained) continue;
+        PointCloud<Scalar> in_model;
+        const Isometry3<Scalar> T_oc = h2.T_camera_object.inverse(Eigen::Isometry);
+        for (const Vec3& p : seg) in_model.points.push_back(T_oc * p);
+        std::vector<std::ptrdiff_t> partners;
+        pm.association->associate(in_model.points, s_.explain_distance, 1, partners);
+        const std::size_t explained = std::size_t(std::count_if(partners.begin(), partners.end(), [](std::ptrdiff_t q) { return q >= 0; }));
+        if (Scalar(explained) < s_.min_segment_explained * Scalar(seg.size())) continue;
         score(g, cam, pm, h2, true);
-        // Ranked by confidence × explained share: a face of a box fitted onto a larger face of the
-        // part is fully supported (confidence near 100) but leaves the rest of the segment unexplained.
-        const Scalar key = h2.confidence * explained;
-        if (key > best_key || best.model < 0) {
-          best_key = key;
-          best = std::move(h2);
-        }
+        if (h2.confidence > best.confidence || best.model < 0) best = std::move(h2);
       }
     }
     return best;
-  }
-
-  /// Share of `points` (camera frame) within explain_distance of the model's surface at T_camera_object.
-  Scalar explained_share(const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_camera_object,
-                         const std::vector<Vec3>& points) const {
-    if (points.empty()) return 0;
-    std::vector<Vec3> in_model;
-    in_model.reserve(points.size());
-    const Isometry3<Scalar> T_oc = T_camera_object.inverse(Eigen::Isometry);
-    for (const Vec3& p : points) in_model.push_back(T_oc * p);
-    std::vector<std::ptrdiff_t> partners;
-    pm.association->associate(in_model, s_.explain_distance, 1, partners);
-    const auto explained = std::count_if(partners.begin(), partners.end(), [](std::ptrdiff_t q) { return q >= 0; });
-    return Scalar(explained) / Scalar(points.size());
   }
 
   /// Starts: the model's principal axes onto the segment's in every signed permutation (proper
@@ -747,14 +727,10 @@ class ReferenceEstimator {
     std::stable_sort(options.begin(), options.end(), [](const Option& x, const Option& y) {
       return x.in_sight != y.in_sight ? x.in_sight : x.key < y.key;
     });
-    // The jaws open to the widest registered opening before they approach (whatever grasp follows).
-    Scalar opening = 0;
-    for (const auto& g : grasps) opening = std::max(opening, g.opening);
-    const Isometry3<Scalar> T_object_camera = T_camera_object.inverse(Eigen::Isometry);
     const Option* chosen = nullptr;
     for (const Option& o : options) {
       if (!o.in_sight) break;
-      if (gripper_collides(input, cam, pm, T_object_camera, o.T_camera_grasp, opening)) continue;
+      if (gripper_collides(input, cam, o.T_camera_grasp, pm.model.gripper, grasps[o.grasp].opening)) continue;
       chosen = &o;
       break;
     }
@@ -764,26 +740,14 @@ class ReferenceEstimator {
     T_camera_grasp = chosen->T_camera_grasp;
   }
 
-  /// Whether a gripper sample lies behind a measured surface that is not the object's own: seen
-  /// obliquely, the object hides the space beside it where the fingers go down, and a registered
-  /// grasp clears its own part by construction (parts.hpp), so only other surfaces are obstacles.
   bool gripper_collides(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
-                        const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_object_camera,
-                        const Isometry3<Scalar>& T_camera_grasp, Scalar opening) const {
-    std::vector<Vec3> own(1);
-    std::vector<std::ptrdiff_t> partner;
-    for (const Vec3& q : detail::gripper_samples(s_.gripper, pm.model.gripper, opening, Scalar(0.002))) {
+                        const Isometry3<Scalar>& T_camera_grasp, cycle::GripperKind kind, Scalar opening) const {
+    for (const Vec3& q : detail::gripper_samples(s_.gripper, kind, opening, Scalar(0.002))) {
       const Vec3 p = T_camera_grasp * q;
       const auto px = cam.project(p);
       if (!px) continue;
-      // project() admits u, v down to -0.5, which rounds to -1.
-      const int u = std::clamp(int(std::lround(px->x())), 0, cam.width() - 1);
-      const int v = std::clamp(int(std::lround(px->y())), 0, cam.height() - 1);
-      const Scalar z = input.depth.depth(u, v);
-      if (!(z > Scalar(0) && z < p.z() - s_.collision_margin)) continue;  // in front of the measurement
-      own[0] = T_object_camera * cam.backproject(Scalar(u), Scalar(v), z);
-      pm.association->associate(own, s_.own_surface_distance, 1, partner);
-      if (partner[0] < 0) return true;  // behind a surface of something else
+      const Scalar z = input.depth.depth(int(std::lround(px->x())), int(std::lround(px->y())));
+      if (z > Scalar(0) && z < p.z() - s_.collision_margin) return true;  // behind a measured surface
     }
     return false;
   }
