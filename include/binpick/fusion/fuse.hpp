@@ -70,13 +70,17 @@ struct FusionSettings {
   /// source, Tukey kernel. Its num_threads is replaced by this struct's.
   IcpSettings<Scalar> icp = default_icp();
   ProjectiveAssociationSettings association{};  ///< search window in view 1
+  /// Estimate normals for the source points: points without one (depth edges, holes) are left out,
+  /// and pairs whose normals differ by more than IcpSettings::max_normal_angle are rejected. false:
+  /// every source point pairs (point-to-plane needs only view 1's normals).
+  bool source_normals = true;
   /// View 1 is sampled every `reference_stride`-th row and column (with intrinsics scaled to match,
   /// which is exact) for its normals and the association: the source is already every 4th pixel, so
   /// a full-resolution reference only costs time. 1 = full resolution (also used for camera models
   /// other than pinhole and Brown–Conrady).
   int reference_stride = 2;
-  /// Normals of view 1 and of the subsampled sources: tangents over 3 (sampled) pixels and a
-  /// tolerant crease test, because single-shot depth on metal is noisy at the pixel scale.
+  /// Normals of view 1 (and of the sources with source_normals): tangents over 3 (sampled) pixels and
+  /// a tolerant crease test, because single-shot depth on metal is noisy at the pixel scale.
   OrganizedNormalSettings<Scalar> normals = default_normals();
   /// Bounds on the ICP correction relative to the kinematic pose; a larger correction is not trusted
   /// and the kinematic pose is kept. Defaults: 3 cm and 5° (motion error is a few mm and about 1°).
@@ -90,6 +94,27 @@ struct FusionSettings {
     n.pixel_offset = 3;
     n.max_crease_angle = Scalar(0.7);
     return n;
+  }
+
+  /// Registration settings for single-shot depth of shiny metal (SENSOR_MODEL.md: holes, ghosts,
+  /// edge effects, speckle): a 3 x 3 search window in view 1 (the pixel a source point projects to is
+  /// often a hole or a ghost; the window finds the surface beside it), a crease limit of 1.2 rad and a
+  /// loose source-normal test of 1.5 rad (a tight one dropped most of the noisy source points and left
+  /// the pose biased; leaving out points without a normal still keeps clean box edges from sliding).
+  ///
+  /// Measured on simulated metal piles (4 part types x 3 piles x 3 views at 640 x 512, kinematic poses
+  /// off by 3 mm and 1 deg, i.e. 7.0 mm rms displacement of the view's points): the defaults leave the
+  /// registered views 3.8 mm off on average (worst 6.5 mm), these settings 0.88 mm (worst 1.47 mm;
+  /// with source_normals = false and 30 iterations 0.43 mm). Not the default yet: in the simulated
+  /// picking test (2 runs x 10 parts per type, with 30 iterations) the complete rate did not change
+  /// beyond its noise (81 % vs 82 % over the 5 types) while processing took 58 ms a cycle instead of 37
+  /// (the association makes 9 lookups per point instead of one).
+  static FusionSettings<Scalar> metal_depth() {
+    FusionSettings<Scalar> f;
+    f.association.window_radius = 1;
+    f.normals.max_crease_angle = Scalar(1.2);
+    f.icp.max_normal_angle = Scalar(1.5);
+    return f;
   }
 
   static IcpSettings<Scalar> default_icp() {
@@ -285,12 +310,18 @@ class Fuser {
     st.normals.num_threads = threads;  // never more threads than the caller asked for
     const auto reference = make_reference(views[0], st);
     const Isometry3<Scalar> T_ref_base = T_base_views[0].inverse(Eigen::Isometry);
-    IcpSettings<Scalar> icp = settings.icp;
-    icp.num_threads = threads;
+    IcpSettings<Scalar> icp_settings = settings.icp;
+    icp_settings.num_threads = threads;
+    IcpSettings<Scalar> icp_strided = icp_settings;
+    icp_strided.stride = 1;  // the image grid is subsampled by backproject_points
     for (std::size_t i = 1; i < views.size(); ++i) {
       FusionViewReport<Scalar>& rep = result.views[i];
       const Isometry3<Scalar> T_ref_view_prior = T_ref_base * T_base_views[i];
-      const IcpResult<Scalar> r = align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp, st.normals);
+      const IcpResult<Scalar> r =
+          settings.source_normals
+              ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, st.normals)
+              : icp(backproject_points(views[i], camera_, std::max(1, settings.icp.stride)), reference, T_ref_view_prior,
+                    icp_strided);
       const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
       rep.icp_status = r.status;
       rep.icp_rmse = r.rmse;
