@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "binpick/core/pose.hpp"
 #include "binpick/fusion.hpp"
 #include "binpick/sim/scene.hpp"
 #include "binpick/sim/stereo_sensor.hpp"
@@ -15,17 +16,6 @@
 using namespace binpick;
 
 namespace {
-
-// Camera at `eye` looking at `target` (z forward, x along the base's -y x z).
-Isometry3<float> looking_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& target) {
-  const Eigen::Vector3f z = (target - eye).normalized(), x = -Eigen::Vector3f::UnitY().cross(z).normalized();
-  Isometry3<float> T = Isometry3<float>::Identity();
-  T.linear().col(0) = x;
-  T.linear().col(1) = z.cross(x);
-  T.linear().col(2) = z;
-  T.translation() = eye;
-  return T;
-}
 
 // Root mean square displacement [m] of a view's measured points between two poses of the view.
 double rms_displacement(const DepthImage<float>& depth, const PinholeCamera<float>& camera, const Isometry3<float>& A,
@@ -66,7 +56,8 @@ TEST(FusionRegistration, MetalDepthViewsAreRegisteredToAboutAMillimetre) {
     for (int i = 0; i < 4; ++i) {  // a short sensing arc over the pile
       const float a = -0.06f + 0.04f * float(i);
       const Isometry3<float> T =
-          looking_at(Eigen::Vector3f(0.3f * std::sin(a), 0.01f * float(i), 0.06f + 0.3f * std::cos(a)), Eigen::Vector3f(0, 0, 0.06f));
+          camera_looking_at<float>(Eigen::Vector3f(0.3f * std::sin(a), 0.01f * float(i), 0.06f + 0.3f * std::cos(a)),
+                                   Eigen::Vector3f(0, 0, 0.06f), Eigen::Vector3f::UnitY());
       depth.push_back(std::move(sensor.render(geo, T, std::uint64_t(i)).depth));
       truth.push_back(T);
       Isometry3<float> error = Isometry3<float>::Identity();
