@@ -9,7 +9,8 @@ function(binpick_warnings tgt)
   endif()
 endfunction()
 
-# Adds every immediate subfolder of the current source dir that has a CMakeLists.txt, so modules can
+# Adds every immediate subfolder of the current source dir that has a CMakeLists.txt (but common/ and
+# sim_cell/, which the top level adds first), so modules can
 # bring their own tests / benchmarks / tools without editing a shared list.
 macro(binpick_add_subdirectories)
   file(GLOB _binpick_children LIST_DIRECTORIES true RELATIVE ${CMAKE_CURRENT_SOURCE_DIR}
@@ -18,7 +19,7 @@ macro(binpick_add_subdirectories)
   foreach(_child ${_binpick_children})
     if(IS_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/${_child}
        AND EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${_child}/CMakeLists.txt
-       AND NOT _child STREQUAL "common")
+       AND NOT _child STREQUAL "common" AND NOT _child STREQUAL "sim_cell")
       add_subdirectory(${_child})
     endif()
   endforeach()

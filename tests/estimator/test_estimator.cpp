@@ -7,6 +7,7 @@
 
 #include "binpick/fusion/fuse.hpp"
 #include "binpick/sim.hpp"
+#include "sim_instances.hpp"  // the simulated cell's templates, compiled once
 #include "test_support.hpp"
 
 using namespace binpick;

@@ -12,6 +12,7 @@
 #include "binpick/fusion.hpp"
 #include "binpick/sim/scene.hpp"
 #include "binpick/sim/stereo_sensor.hpp"
+#include "sim_instances.hpp"  // the simulated cell's templates, compiled once
 
 using namespace binpick;
 

@@ -11,6 +11,7 @@
 
 #if __has_include("binpick/registration/icp.hpp")
 #include "binpick/registration.hpp"
+#include "sim_instances.hpp"  // the simulated cell's templates, compiled once
 #define BINPICK_RELIABILITY_REGISTRATION 1
 #endif
 

@@ -5,6 +5,7 @@
 
 #include "binpick/cycle/drivers.hpp"
 #include "binpick/sim.hpp"
+#include "sim_instances.hpp"  // the simulated cell's templates, compiled once
 #include "test_support.hpp"
 
 using namespace binpick;

@@ -8,6 +8,7 @@
 #include <rapidcheck/gtest.h>
 
 #include "binpick/sim.hpp"
+#include "sim_instances.hpp"  // the simulated cell's templates, compiled once
 #include "test_support.hpp"
 
 using namespace binpick;

@@ -25,6 +25,7 @@
 #include "binpick/sim.hpp"
 #include "binpick/sim/reference_estimator.hpp"
 #include "binpick/sim/detail/random.hpp"
+#include "sim_instances.hpp"  // the simulated cell's templates, compiled once
 #include "io.hpp"
 
 using namespace binpick;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "binpick/fusion.hpp"
+#include "sim_instances.hpp"  // the simulated cell's templates, compiled once
 #include "io.hpp"
 
 namespace {

@@ -14,6 +14,7 @@
 #include "binpick/sim.hpp"
 #include "binpick/sim/grasp_model.hpp"
 #include "binpick/sim/reference_estimator.hpp"
+#include "sim_instances.hpp"
 #include "faulty_drivers.hpp"
 
 namespace binpick::simcell {
@@ -59,6 +60,22 @@ class SimGripper {
 
 static_assert(cycle::is_gripper<SimGripper<float>>::value, "SimGripper models Gripper");
 
+/// The pipeline of the cell, over the fault-injecting wrappers of the fake drivers.
+using CellPipeline = cycle::PickingPipeline<FaultyRobot<float>, FaultySensor<float>,
+                                            sim::ReferenceEstimator<float, PinholeCamera<float>>, sim::SimClock,
+                                            SimGripper<float>>;
+
+}  // namespace binpick::simcell
+
+// Compiled once in sim_cell.cpp (see sim_instances.hpp).
+extern template class binpick::simcell::SimGripper<float>;
+extern template class binpick::cycle::PickingPipeline<
+    binpick::simcell::FaultyRobot<float>, binpick::simcell::FaultySensor<float>,
+    binpick::sim::ReferenceEstimator<float, binpick::PinholeCamera<float>>, binpick::sim::SimClock,
+    binpick::simcell::SimGripper<float>>;
+
+namespace binpick::simcell {
+
 struct CellOptions {
   sim::PartType part = sim::PartType::small_screw;
   int parts = 20;
@@ -73,7 +90,7 @@ struct Cell {
   using Camera = PinholeCamera<S>;
   using Robot = FaultyRobot<S>;
   using Sensor = FaultySensor<S>;
-  using Pipeline = cycle::PickingPipeline<Robot, Sensor, sim::ReferenceEstimator<S, Camera>, sim::SimClock, SimGripper<S>>;
+  using Pipeline = CellPipeline;
   sim::Scene<S> scene;
   int initial_parts = 0;
   sim::SimClock clock;
@@ -135,3 +152,4 @@ struct Cell {
 };
 
 }  // namespace binpick::simcell
+

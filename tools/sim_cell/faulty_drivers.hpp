@@ -247,3 +247,7 @@ class FaultLedger {
 };
 
 }  // namespace binpick::simcell
+
+// Compiled once in sim_cell.cpp (see sim_instances.hpp).
+extern template class binpick::simcell::FaultyRobot<float>;
+extern template class binpick::simcell::FaultySensor<float>;
