@@ -130,15 +130,15 @@ struct Cell {
 
   /// Arms a fault for the next cycle (Fault::none disarms both drivers).
   void arm(const Arm& a) {
-    const bool on_sensor = a.fault == Fault::frame_lost || a.fault == Fault::frame_late;
-    robot->arm(a.fault != Fault::none && !on_sensor ? a : Arm{});
-    sensor->arm(on_sensor ? a : Arm{});
+    robot->arm(a.fault != Fault::none && !on_sensor(a) ? a : Arm{});
+    sensor->arm(on_sensor(a) ? a : Arm{});
   }
   /// Whether the fault armed for the last cycle was injected.
   bool fired(const Arm& a) const {
-    const bool on_sensor = a.fault == Fault::frame_lost || a.fault == Fault::frame_late;
-    return a.fault != Fault::none && (on_sensor ? sensor->armed().fired : robot->armed().fired);
+    return a.fault != Fault::none && (on_sensor(a) ? sensor->armed().fired : robot->armed().fired);
   }
+  /// Frame faults are the sensor's to inject, the others the robot's.
+  static bool on_sensor(const Arm& a) { return a.fault == Fault::frame_lost || a.fault == Fault::frame_late; }
   /// Whether cycle `r` fused a view whose pose read is far from where the camera truly was. Late reads
   /// in motion are off by latency x speed (about 2 cm here), which registration absorbs; 5 cm is far
   /// beyond that. Ground truth, for judging the run only.
