@@ -82,6 +82,57 @@ TEST(FusionRegistration, MotionCorruptedPosesAreCorrectedBeforeVoting) {
   EXPECT_EQ(r_on.views[0].pose, ViewPose::reference);
 }
 
+// A Fuser and a FusionResult kept across cycles (their buffers reused: the registration's reference
+// cloud, the output images) give the same bits as fresh ones, also after a fusion of other views with
+// other settings in between.
+TEST(FusionRegistration, KeptFuserAndResultGiveTheBitsOfFreshOnes) {
+  const PinholeCamera<double> cam(250, 250, 159.5, 127.5, 320, 256);
+  const sim::Scene scene = sim::boxes_scene();
+  auto cycle_views = [&](double a0, int n, std::vector<DepthImage<double>>& images, std::vector<Isometry3<double>>& poses) {
+    for (int i = 0; i < n; ++i) {
+      const double a = a0 + 0.04 * i;
+      images.push_back(scene.render<double>(cam, arc_pose(a)));
+      poses.push_back(i == 0 ? arc_pose(a) : arc_pose(a - 0.03));  // late kinematics
+    }
+  };
+  std::vector<DepthImage<double>> ia, ib;
+  std::vector<Isometry3<double>> pa, pb;
+  cycle_views(-0.06, 4, ia, pa);
+  cycle_views(0.1, 3, ib, pb);
+  std::vector<DepthImageView<double>> va, vb;
+  for (const auto& v : ia) va.push_back(v.view());
+  for (const auto& v : ib) vb.push_back(v.view());
+  FusionSettings<double> sa;
+  sa.compute_votes = true;
+  FusionSettings<double> sb;
+  sb.reference_stride = 1;
+
+  const auto same = [](const FusionResult<double>& x, const FusionResult<double>& y) {
+    EXPECT_TRUE(x.depth.storage() == y.depth.storage());
+    EXPECT_TRUE(x.votes.votes == y.votes.votes);
+    EXPECT_EQ(x.votes.width, y.votes.width);
+    EXPECT_EQ(x.valid_pixels, y.valid_pixels);
+    ASSERT_EQ(x.views.size(), y.views.size());
+    for (std::size_t i = 0; i < x.views.size(); ++i) {
+      EXPECT_EQ(x.views[i].pose, y.views[i].pose) << i;
+      EXPECT_TRUE(x.views[i].T_base_view.matrix() == y.views[i].T_base_view.matrix()) << i;
+      EXPECT_EQ(x.views[i].icp_iterations, y.views[i].icp_iterations) << i;
+    }
+  };
+  Fuser<double, PinholeCamera<double>> kept(cam);
+  FusionResult<double> out;
+  kept.fuse(va, pa, sa, out);
+  same(out, fuse(va, pa, cam, sa));
+  EXPECT_FALSE(out.votes.votes.empty());
+  EXPECT_EQ(out.views[1].pose, ViewPose::registered);
+  kept.fuse(vb, pb, sb, out);
+  same(out, fuse(vb, pb, cam, sb));
+  EXPECT_TRUE(out.votes.votes.empty());  // votes off this time: none left from the last fusion
+  EXPECT_EQ(out.views.size(), 3u);
+  kept.fuse(va, pa, sa, out);
+  same(out, fuse(va, pa, cam, sa));
+}
+
 TEST(FusionRegistration, CorrectionBeyondTheBoundKeepsTheKinematicPose) {
   const PinholeCamera<double> cam(250, 250, 159.5, 127.5, 320, 256);
   const sim::Scene scene = sim::boxes_scene();

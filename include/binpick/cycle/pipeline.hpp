@@ -546,7 +546,8 @@ class PickingPipeline {
       for (const auto& f : frames) views.push_back(f.depth.view());
       FusionSettings<Scalar> fs = s_.fusion;
       fs.sensor_accuracy = sensor_->accuracy();
-      FusionResult<Scalar> fused = fuser_.fuse(views, cap.T_base_cameras_read, fs);
+      FusionResult<Scalar>& fused = fused_;  // kept across cycles: no large allocation per cycle
+      fuser_.fuse(views, cap.T_base_cameras_read, fs, fused);
       if (s_.crop_to_bin) crop(fused);
       out.fusion_s = seconds_since(t0);
       out.views = int(views.size());
@@ -897,6 +898,7 @@ class PickingPipeline {
   Gripper* gripper_;
   PipelineSettings<Scalar> s_;
   Fuser<Scalar, Camera> fuser_;
+  FusionResult<Scalar> fused_;  // the worker's last fusion (its buffers serve the next)
   detail::WorkerThread worker_;  // runs process() of run_nonstop
   std::uint64_t rng_;
   int n_ = 1;

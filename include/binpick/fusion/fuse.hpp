@@ -177,8 +177,9 @@ struct FusionResult {
   std::size_t valid_pixels = 0;     ///< valid pixels of the fused depth
 };
 
-/// Reusable fusion context for one camera: keeps the camera's ray table and the per-view planes, so a
-/// cycle after the first allocates nothing large.
+/// Reusable fusion context for one camera: keeps the camera's ray table, the per-view planes and the
+/// registration's reference cloud, so a cycle after the first allocates nothing large (with the
+/// overload of fuse() that fills a kept FusionResult, not even the output).
 template <typename Scalar, typename Camera>
 class Fuser {
   static_assert(is_camera_model<Camera>::value, "Fuser: Camera must model the camera concept (core/camera_model.hpp)");
@@ -195,9 +196,17 @@ class Fuser {
   /// kMaxFusionViews views.
   FusionResult<Scalar> fuse(const std::vector<DepthImageView<Scalar>>& views,
                             const std::vector<Isometry3<Scalar>>& T_base_views, const FusionSettings<Scalar>& settings) {
+    FusionResult<Scalar> result;
+    fuse(views, T_base_views, settings, result);
+    return result;
+  }
+
+  /// fuse() into `result`, reusing its memory (keep one FusionResult across cycles). Same errors.
+  void fuse(const std::vector<DepthImageView<Scalar>>& views, const std::vector<Isometry3<Scalar>>& T_base_views,
+            const FusionSettings<Scalar>& settings, FusionResult<Scalar>& result) {
     require(!views.empty(), "views", "is empty");
     require(views.size() == T_base_views.size(), "T_base_views", "must have one pose per view");
-    return fuse_into(T_base_views[0], views, T_base_views, 1, settings);
+    fuse_into(T_base_views[0], views, T_base_views, 1, settings, result);
   }
 
   /// Fuses all `views` into a virtual target camera at `T_base_target` that has no depth of its own
@@ -207,14 +216,15 @@ class Fuser {
                                     const FusionSettings<Scalar>& settings) {
     require(!views.empty(), "views", "is empty");
     require(views.size() == T_base_views.size(), "T_base_views", "must have one pose per view");
-    return fuse_into(T_base_target, views, T_base_views, 0, settings);
+    FusionResult<Scalar> result;
+    fuse_into(T_base_target, views, T_base_views, 0, settings, result);
+    return result;
   }
 
  private:
-  FusionResult<Scalar> fuse_into(const Isometry3<Scalar>& T_base_target,
-                                 const std::vector<DepthImageView<Scalar>>& views,
-                                 const std::vector<Isometry3<Scalar>>& T_base_views, std::size_t first_reprojected,
-                                 const FusionSettings<Scalar>& settings) {
+  void fuse_into(const Isometry3<Scalar>& T_base_target, const std::vector<DepthImageView<Scalar>>& views,
+                 const std::vector<Isometry3<Scalar>>& T_base_views, std::size_t first_reprojected,
+                 const FusionSettings<Scalar>& settings, FusionResult<Scalar>& result) {
     require(int(views.size()) <= kMaxFusionViews, "views", "more than kMaxFusionViews views");
     require(std::isfinite(settings.sensor_accuracy) && settings.sensor_accuracy > Scalar(0), "sensor_accuracy",
             "must be finite and > 0");
@@ -234,9 +244,8 @@ class Fuser {
     planes_.resize(nplanes);
     for (auto& p : planes_) p.resize(npix + 1);  // + the spare slot of reproject_to_plane
 
-    FusionResult<Scalar> result;
     result.T_base_target = T_base_target;
-    result.views.resize(views.size());
+    result.views.assign(views.size(), FusionViewReport<Scalar>{});
     const Isometry3<Scalar> T_target_base = T_base_target.inverse(Eigen::Isometry);
     for (std::size_t i = 0; i < views.size(); ++i) {
       result.views[i].T_base_view = T_base_views[i];
@@ -269,6 +278,8 @@ class Fuser {
       result.votes.height = h;
       result.votes.votes.assign(npix, 0);
       vote_ptr = result.votes.votes.data();
+    } else {
+      result.votes = VoteMap{};
     }
     const Scalar delta = settings.effective_delta();
     const long nrows = h;
@@ -280,27 +291,31 @@ class Fuser {
     }
 
     result.valid_pixels = result.depth.valid_count();
-    return result;
   }
 
-  // The projective target of the registration: view 1, decimated when the camera model allows it.
-  auto make_reference(const DepthImageView<Scalar>& view, const FusionSettings<Scalar>& settings) const {
-    const int k = settings.reference_stride;
+  // The projective target of the registration: view 1, decimated when the camera model allows it,
+  // built in the kept buffers (register_to_first hands the cloud back).
+  ProjectiveAssociation<Scalar, Camera> make_reference(const DepthImageView<Scalar>& view,
+                                                       const FusionSettings<Scalar>& settings) {
+    Camera cam = camera_;
+    DepthImageView<Scalar> source = view;
     if constexpr (detail::is_scalable_camera<Camera>::value) {
-      const Camera cam = detail::scaled_camera(camera_, k);
-      DepthImage<Scalar> dec(cam.width(), cam.height());
-      for (int v = 0; v < dec.height(); ++v)
-        for (int u = 0; u < dec.width(); ++u) dec.at(u, v) = view.depth(u * k, v * k);
-      return make_projective_target(dec.view(), cam, settings.association, settings.normals);
-    } else {
-      return make_projective_target(view, camera_, settings.association, settings.normals);
+      const int k = settings.reference_stride;
+      cam = detail::scaled_camera(camera_, k);
+      ref_depth_.resize(cam.width(), cam.height());
+      for (int v = 0; v < ref_depth_.height(); ++v)
+        for (int u = 0; u < ref_depth_.width(); ++u) ref_depth_.at(u, v) = view.depth(u * k, v * k);
+      source = ref_depth_.view();
     }
+    backproject_organized(source, cam, 1, ref_cloud_);
+    estimate_organized_normals(ref_cloud_, settings.normals);
+    return ProjectiveAssociation<Scalar, Camera>(std::move(ref_cloud_), cam, settings.association);
   }
 
   // §III.B.2: views[1..] are registered to views[0], whose pose is exact, starting from their
   // kinematic poses. Fills each view's pose and diagnostics in `result`.
   void register_to_first(const std::vector<DepthImageView<Scalar>>& views, const std::vector<Isometry3<Scalar>>& T_base_views,
-                         const FusionSettings<Scalar>& settings, int threads, FusionResult<Scalar>& result) const {
+                         const FusionSettings<Scalar>& settings, int threads, FusionResult<Scalar>& result) {
     require(std::isfinite(settings.max_correction_translation) && settings.max_correction_translation > Scalar(0),
             "max_correction_translation", "must be finite and > 0");
     require(std::isfinite(settings.max_correction_rotation) && settings.max_correction_rotation > Scalar(0),
@@ -308,7 +323,7 @@ class Fuser {
     require(settings.reference_stride >= 1, "reference_stride", "must be >= 1");
     FusionSettings<Scalar> st = settings;
     st.normals.num_threads = threads;  // never more threads than the caller asked for
-    const auto reference = make_reference(views[0], st);
+    ProjectiveAssociation<Scalar, Camera> reference = make_reference(views[0], st);
     const Isometry3<Scalar> T_ref_base = T_base_views[0].inverse(Eigen::Isometry);
     IcpSettings<Scalar> icp_settings = settings.icp;
     icp_settings.num_threads = threads;
@@ -342,6 +357,7 @@ class Fuser {
         rep.T_base_view = T_base_views[0] * r.T_target_source;
       }
     }
+    ref_cloud_ = std::move(reference).release_target();  // the memory serves the next fusion
   }
 
   // The target view's own depths as a plane (+inf = none); returns its valid pixel count.
@@ -369,6 +385,8 @@ class Fuser {
   Camera camera_;
   detail::RayTable<Scalar> rays_;
   std::vector<std::vector<Scalar>> planes_;
+  DepthImage<Scalar> ref_depth_;       // view 1 decimated for the registration's reference
+  OrganizedCloud<Scalar> ref_cloud_;   // its cloud and normals, lent to the association each fusion
 };
 
 /// One-shot fusion (builds a Fuser; keep a Fuser instead when fusing every cycle).

@@ -165,7 +165,7 @@ void estimate_organized_normals(OrganizedCloud<Scalar>& cloud, const OrganizedNo
           "cloud", "points.size() must equal width*height");
   const int threads = registration_detail::resolve_threads(settings.num_threads);
   const Scalar cc = registration_detail::cos_crease(settings);
-  cloud.normals.assign(cloud.points.size(), Vector3<Scalar>::Zero());
+  cloud.normals.resize(cloud.points.size());  // every normal is written below (reused memory: no fill)
   registration_detail::parallel_for(cloud.height, threads, [&](std::ptrdiff_t v) {
     for (int u = 0; u < cloud.width; ++u)
       cloud.normals[cloud.index(u, int(v))] = registration_detail::organized_normal(cloud, u, int(v), settings, cc);

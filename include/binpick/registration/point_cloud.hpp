@@ -53,18 +53,20 @@ Vector3<Scalar> backproject_or_zero(const Camera& camera, int u, int v, Scalar z
 }  // namespace registration_detail
 
 /// One point per pixel of every `stride`-th row and column of `depth` (stride 1: every pixel; the
-/// cloud is then ceil(width/stride) × ceil(height/stride)), in the camera frame [m]. Throws
-/// std::invalid_argument when the image size differs from the camera's or stride < 1.
+/// cloud is then ceil(width/stride) × ceil(height/stride)), in the camera frame [m], written into
+/// `cloud` (its points replaced, its normals left alone) reusing its memory: a cloud kept across frames
+/// allocates once. Throws std::invalid_argument when the image size differs from the camera's or
+/// stride < 1.
 template <typename Scalar, typename Camera>
-OrganizedCloud<Scalar> backproject_organized(const DepthImageView<Scalar>& depth, const Camera& camera, int stride = 1) {
+void backproject_organized(const DepthImageView<Scalar>& depth, const Camera& camera, int stride,
+                           OrganizedCloud<Scalar>& cloud) {
   static_assert(is_camera_model<Camera>::value, "Camera must model the camera concept (camera_model.hpp)");
   require(stride >= 1, "stride", "must be >= 1");
   require(depth.width() == camera.width() && depth.height() == camera.height(), "depth",
           "image size differs from the camera's");
-  OrganizedCloud<Scalar> cloud;
   cloud.width = (depth.width() + stride - 1) / stride;
   cloud.height = (depth.height() + stride - 1) / stride;
-  cloud.points.assign(std::size_t(cloud.width) * std::size_t(cloud.height), Vector3<Scalar>::Zero());
+  cloud.points.resize(std::size_t(cloud.width) * std::size_t(cloud.height));  // every point is written below
   // The encoding switch is taken once, not per pixel.
   depth.dispatch([&](auto tag) {
     using T = decltype(tag);
@@ -78,6 +80,13 @@ OrganizedCloud<Scalar> backproject_organized(const DepthImageView<Scalar>& depth
       }
     }
   });
+}
+
+/// backproject_organized into a new cloud.
+template <typename Scalar, typename Camera>
+OrganizedCloud<Scalar> backproject_organized(const DepthImageView<Scalar>& depth, const Camera& camera, int stride = 1) {
+  OrganizedCloud<Scalar> cloud;
+  backproject_organized(depth, camera, stride, cloud);
   return cloud;
 }
 

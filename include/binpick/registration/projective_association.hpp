@@ -53,6 +53,10 @@ class ProjectiveAssociation {
   const Vector3<Scalar>& target_normal(std::ptrdiff_t i) const { return target_.normals[std::size_t(i)]; }
   bool has_target_normals() const { return target_.has_normals(); }
 
+  /// Moves the target cloud out (the association is empty afterwards and must not associate again):
+  /// a caller that builds one association per frame keeps the memory for the next frame.
+  OrganizedCloud<Scalar> release_target() && { return std::move(target_); }
+
   void associate(const std::vector<Vector3<Scalar>>& queries, Scalar max_distance, int num_threads,
                  std::vector<std::ptrdiff_t>& partners) const {
     partners.assign(queries.size(), -1);
