@@ -1,5 +1,6 @@
 #pragma once
-// The simulated cell's heavy class templates for float and the pinhole camera, compiled once in
+// The simulated cell's heavy class templates for float and the pinhole camera (and Fuser for double,
+// which the reliability tests use), compiled once in
 // sim_cell.cpp (library binpick_sim_cell) instead of in every tool and test that uses them: each such
 // translation unit took minutes under the sanitizers (binpick_sim.cpp 150 s -> 65 s at -O1 with these
 // declarations). Project-internal: integrators instantiate the library's templates as they like.

@@ -307,9 +307,7 @@ class Fuser {
         for (int u = 0; u < ref_depth_.width(); ++u) ref_depth_.at(u, v) = view.depth(u * k, v * k);
       source = ref_depth_.view();
     }
-    backproject_organized(source, cam, 1, ref_cloud_);
-    estimate_organized_normals(ref_cloud_, settings.normals);
-    return ProjectiveAssociation<Scalar, Camera>(std::move(ref_cloud_), cam, settings.association);
+    return make_projective_target(source, cam, settings.association, settings.normals, std::move(ref_cloud_));
   }
 
   // §III.B.2: views[1..] are registered to views[0], whose pose is exact, starting from their

@@ -25,13 +25,16 @@
 
 namespace binpick {
 
-/// The projective association of a target depth view: its organized cloud with normals.
+/// The projective association of a target depth view: its organized cloud with normals, built in the
+/// memory of `storage` (pass the cloud of last frame's association, `release_target()`, to reuse it).
 template <typename Scalar, typename Camera>
 ProjectiveAssociation<Scalar, Camera> make_projective_target(const DepthImageView<Scalar>& target_depth,
                                                              const Camera& target_camera,
                                                              const ProjectiveAssociationSettings& association = {},
-                                                             const OrganizedNormalSettings<Scalar>& normals = {}) {
-  OrganizedCloud<Scalar> cloud = backproject_organized(target_depth, target_camera);
+                                                             const OrganizedNormalSettings<Scalar>& normals = {},
+                                                             OrganizedCloud<Scalar> storage = {}) {
+  OrganizedCloud<Scalar> cloud = std::move(storage);
+  backproject_organized(target_depth, target_camera, 1, cloud);
   estimate_organized_normals(cloud, normals);
   return ProjectiveAssociation<Scalar, Camera>(std::move(cloud), target_camera, association);
 }
