@@ -73,6 +73,9 @@ int main(int argc, char** argv) {
       // As the pipeline fuses: into a FusionResult kept across cycles (no image-sized allocation).
       FusionResult<float> kept;
       const auto sf = bench::measure([&] { fuser.fuse(views, poses, fs, kept); valid = kept.valid_pixels; }, opt.warmup, opt.trials);
+      // ICP's work in the fusion: iterations and inliers summed over views 2..4.
+      double icp_iterations = 0, icp_inliers = 0;
+      for (const auto& v : kept.views) icp_iterations += v.icp_iterations, icp_inliers += double(v.icp_inliers);
       const auto sp = bench::measure(
           [&] {
             const auto c = active_vision::target_center<float>(objects, conf, T, 0);
@@ -90,7 +93,8 @@ int main(int argc, char** argv) {
           },
           opt.warmup, opt.trials);
       bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
-          .str("output", "kept").num("valid_fraction", double(valid) / (double(wh[0]) * wh[1])).stats(sf).print();
+          .str("output", "kept").num("valid_fraction", double(valid) / (double(wh[0]) * wh[1]))
+          .num("icp_iterations", icp_iterations).num("icp_inliers", icp_inliers).stats(sf).print();
       bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
           .str("output", "new").stats(sf_new).print();
       bench::JsonLine("cycle_planning").num("threads", threads).num("objects", double(objects.size())).stats(sp).print();

@@ -20,9 +20,14 @@
 ///   // queries are finite; partners is resized to queries.size().
 ///   void associate(const std::vector<Eigen::Matrix<Scalar, 3, 1>>& queries, Scalar max_distance,
 ///                  int num_threads, std::vector<std::ptrdiff_t>& partners) const;
+///   // Optional, point-wise: the partner of one query, or -1 (same rule as associate). With it,
+///   // point-to-plane ICP moves, associates and sums each point in one pass, without per-iteration
+///   // arrays (ProjectiveAssociation has it; a kd-tree is faster queried in batches).
+///   std::ptrdiff_t partner(const Eigen::Matrix<Scalar, 3, 1>& query, Scalar max_distance) const;
 /// };
 /// \endcode
-/// `binpick::is_association<T>` checks the members at compile time.
+/// `binpick::is_association<T>` checks the required members at compile time, `has_point_partner<T>`
+/// the optional one.
 
 #include <cstddef>
 #include <type_traits>
@@ -43,6 +48,13 @@ struct is_association<
                    decltype(std::declval<const T&>().associate(
                        std::declval<const std::vector<Eigen::Matrix<typename T::Scalar, 3, 1>>&>(),
                        typename T::Scalar(), int(), std::declval<std::vector<std::ptrdiff_t>&>()))>>
+    : std::true_type {};
+
+template <typename T, typename = void>
+struct has_point_partner : std::false_type {};
+template <typename T>
+struct has_point_partner<T, std::void_t<decltype(std::ptrdiff_t(std::declval<const T&>().partner(
+                                std::declval<const Eigen::Matrix<typename T::Scalar, 3, 1>&>(), typename T::Scalar())))>>
     : std::true_type {};
 
 }  // namespace binpick

@@ -59,45 +59,49 @@ class ProjectiveAssociation {
 
   void associate(const std::vector<Vector3<Scalar>>& queries, Scalar max_distance, int num_threads,
                  std::vector<std::ptrdiff_t>& partners) const {
-    partners.assign(queries.size(), -1);
+    partners.resize(queries.size());
+    registration_detail::parallel_for(std::ptrdiff_t(queries.size()), num_threads, [&](std::ptrdiff_t i) {
+      partners[std::size_t(i)] = partner(queries[std::size_t(i)], max_distance);
+    });
+  }
+
+  /// The partner of one query (the optional point-wise member of the concept: ICP then transforms,
+  /// associates and sums in one pass, without per-iteration arrays), or -1.
+  std::ptrdiff_t partner(const Vector3<Scalar>& q, Scalar max_distance) const {
     const Scalar max_d2 = max_distance * max_distance;
     const int r = settings_.window_radius, w = target_.width, h = target_.height;
+    const auto px = camera_.project(q);
+    if (!px) return -1;
+    // Nearest pixel: project() keeps (u, v) >= -0.5, so truncating u + 0.5 is floor(u + 0.5)
+    // (std::floor is a library call at the baseline ISA); the clamps below absorb rounding at
+    // the far border.
+    const int u0 = int(px->x() + Scalar(0.5)), v0 = int(px->y() + Scalar(0.5));
     const bool need_normal = target_.has_normals();
-    registration_detail::parallel_for(std::ptrdiff_t(queries.size()), num_threads, [&](std::ptrdiff_t i) {
-      const Vector3<Scalar>& q = queries[std::size_t(i)];
-      const auto px = camera_.project(q);
-      if (!px) return;
-      // Nearest pixel: project() keeps (u, v) >= -0.5, so truncating u + 0.5 is floor(u + 0.5)
-      // (std::floor is a library call at the baseline ISA); the clamps below absorb rounding at
-      // the far border.
-      const int u0 = int(px->x() + Scalar(0.5)), v0 = int(px->y() + Scalar(0.5));
-      if (r == 0) {  // the default: one pixel, no window loop
-        if (u0 < 0 || v0 < 0 || u0 >= w || v0 >= h) return;
-        const std::size_t id = target_.index(u0, v0);
+    if (r == 0) {  // the default: one pixel, no window loop
+      if (u0 < 0 || v0 < 0 || u0 >= w || v0 >= h) return -1;
+      const std::size_t id = target_.index(u0, v0);
+      const Vector3<Scalar>& p = target_.points[id];
+      if (!(p.z() > Scalar(0))) return -1;
+      if (need_normal && target_.normals[id].squaredNorm() == Scalar(0)) return -1;
+      return (p - q).squaredNorm() <= max_d2 ? std::ptrdiff_t(id) : -1;
+    }
+    Scalar best = max_d2;
+    std::ptrdiff_t best_id = -1;
+    for (int v = std::max(0, v0 - r); v <= std::min(h - 1, v0 + r); ++v)
+      for (int u = std::max(0, u0 - r); u <= std::min(w - 1, u0 + r); ++u) {
+        const std::size_t id = target_.index(u, v);
         const Vector3<Scalar>& p = target_.points[id];
-        if (!(p.z() > Scalar(0))) return;
-        if (need_normal && target_.normals[id].squaredNorm() == Scalar(0)) return;
-        if ((p - q).squaredNorm() <= max_d2) partners[std::size_t(i)] = std::ptrdiff_t(id);
-        return;
-      }
-      Scalar best = max_d2;
-      std::ptrdiff_t best_id = -1;
-      for (int v = std::max(0, v0 - r); v <= std::min(h - 1, v0 + r); ++v)
-        for (int u = std::max(0, u0 - r); u <= std::min(w - 1, u0 + r); ++u) {
-          const std::size_t id = target_.index(u, v);
-          const Vector3<Scalar>& p = target_.points[id];
-          if (!(p.z() > Scalar(0))) continue;
-          if (need_normal && target_.normals[id].z() == Scalar(0) && target_.normals[id].squaredNorm() == Scalar(0))
-            continue;  // no normal here: useless for point-to-plane
-          const Scalar d2 = (p - q).squaredNorm();
-          if (d2 <= best) {
-            if (d2 == best && best_id >= 0) continue;  // ties: first in scan order
-            best = d2;
-            best_id = std::ptrdiff_t(id);
-          }
+        if (!(p.z() > Scalar(0))) continue;
+        if (need_normal && target_.normals[id].z() == Scalar(0) && target_.normals[id].squaredNorm() == Scalar(0))
+          continue;  // no normal here: useless for point-to-plane
+        const Scalar d2 = (p - q).squaredNorm();
+        if (d2 <= best) {
+          if (d2 == best && best_id >= 0) continue;  // ties: first in scan order
+          best = d2;
+          best_id = std::ptrdiff_t(id);
         }
-      partners[std::size_t(i)] = best_id;
-    });
+      }
+    return best_id;
   }
 
  private:
