@@ -94,7 +94,9 @@ int main(int argc, char** argv) {
           opt.warmup, opt.trials);
       bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
           .str("output", "kept").num("valid_fraction", double(valid) / (double(wh[0]) * wh[1]))
-          .num("icp_iterations", icp_iterations).num("icp_inliers", icp_inliers).stats(sf).print();
+          .num("icp_iterations", icp_iterations).num("icp_inliers", icp_inliers)
+          .num("last_registration_ms", kept.registration_ms).num("last_reprojection_ms", kept.reprojection_ms)
+          .num("last_voting_ms", kept.voting_ms).stats(sf).print();
       bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
           .str("output", "new").stats(sf_new).print();
       bench::JsonLine("cycle_planning").num("threads", threads).num("objects", double(objects.size())).stats(sp).print();

@@ -203,9 +203,14 @@ TEST(Pipeline, EmptiesASmallPileWithProcessingDuringTheDrop) {
     ++placed;
     // Fig. 2: processing runs while the robot drops the part, and starts after the last view.
     const auto* drop = r.timeline.find("drop N->C");
-    const auto* fusion = r.timeline.find("fusion+ICP");
+    const auto* icp = r.timeline.find("ICP");
+    const auto* fusion = r.timeline.find("fusion");
     const auto* last_exposure = r.timeline.find("exposure 4");
-    ASSERT_TRUE(drop && fusion && last_exposure);
+    ASSERT_TRUE(drop && icp && fusion && last_exposure);
+    // The registration (measured inside the fusion) is its own stage, right before the rest of it.
+    EXPECT_GT(icp->duration(), 0.0);
+    EXPECT_NEAR(icp->end, fusion->start, 1e-12);
+    EXPECT_NEAR(r.icp_ms + fusion->duration() * 1e3, r.fusion_ms, 1e-6);
     EXPECT_GT(r.timeline.overlap("drop N->C", cycle::Lane::processing), 0.5 * drop->duration());
     EXPECT_GE(r.timeline.find("transfer")->start, last_exposure->end - 1e-9);
     // The robot never moves while it waits, and a wait only follows an unfinished processing.

@@ -80,6 +80,13 @@ TEST(FusionRegistration, MotionCorruptedPosesAreCorrectedBeforeVoting) {
     EXPECT_EQ(r_off.views[i].pose, ViewPose::kinematic);
   }
   EXPECT_EQ(r_on.views[0].pose, ViewPose::reference);
+  // The stages are timed: registering three views takes far longer than skipping it.
+  EXPECT_GT(r_on.registration_ms, 0.0);
+  EXPECT_LT(r_off.registration_ms, r_on.registration_ms);
+  for (const auto* r : {&r_on, &r_off}) {
+    EXPECT_GT(r->reprojection_ms, 0.0);
+    EXPECT_GT(r->voting_ms, 0.0);
+  }
 }
 
 // A Fuser and a FusionResult kept across cycles (their buffers reused: the registration's reference

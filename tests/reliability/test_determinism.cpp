@@ -73,7 +73,7 @@ TYPED_TEST(Determinism, FusionWithoutRegistrationIsBitIdenticalTwiceAndForAnyThr
 }
 
 #ifdef BINPICK_RELIABILITY_REGISTRATION
-TYPED_TEST(Determinism, FusionWithRegistrationIsBitIdenticalTwiceForAFixedThreadCount) {
+TYPED_TEST(Determinism, FusionWithRegistrationIsBitIdenticalTwiceAndForAnyThreadCount) {
   using Scalar = TypeParam;
   const auto s = make_synthetic_views<Scalar>(5, 11);
   for (int threads : {1, 2}) {
@@ -81,23 +81,13 @@ TYPED_TEST(Determinism, FusionWithRegistrationIsBitIdenticalTwiceForAFixedThread
     ASSERT_GT(a.valid_pixels, 0u);
     expect_identical(a, b);
   }
-  // Across thread counts ICP's sums are split into different blocks (registration/detail/parallel.hpp),
-  // so registered poses may differ in their last bits; measured here, bounded far below a voxel of depth.
+  // Views are registered in parallel, each view's ICP on one thread (fuse.hpp): no sum is split
+  // across threads, so the registered poses and the fused depth do not change a bit.
   const auto a1 = run_fusion(s, 1, true), a2 = run_fusion(s, 2, true);
-  double pose_diff = 0, depth_diff = 0;
-  for (std::size_t i = 0; i < a1.views.size(); ++i)
-    pose_diff = std::max(pose_diff, double((a1.views[i].T_base_view.matrix() - a2.views[i].T_base_view.matrix()).cwiseAbs().maxCoeff()));
-  std::size_t differing = 0;
-  for (std::size_t i = 0; i < a1.depth.storage().size(); ++i) {
-    const double d = std::abs(double(a1.depth.storage()[i]) - double(a2.depth.storage()[i]));
-    differing += d > 0;
-    if (a1.depth.storage()[i] > 0 && a2.depth.storage()[i] > 0) depth_diff = std::max(depth_diff, d);
-  }
-  ::testing::Test::RecordProperty("pose_diff_1_vs_2_threads", std::to_string(pose_diff));
-  ::testing::Test::RecordProperty("depth_pixels_differing_1_vs_2_threads", std::to_string(differing));
-  std::printf("fusion+registration, 1 vs 2 threads (%s): max pose entry diff %.3g, max depth diff %.3g m, %zu pixels differ\n",
-              sizeof(Scalar) == 4 ? "float" : "double", pose_diff, depth_diff, differing);
-  EXPECT_LT(pose_diff, sizeof(Scalar) == 4 ? 1e-4 : 1e-9);
+  std::size_t registered = 0;
+  for (const auto& v : a1.views) registered += v.pose == ViewPose::registered;
+  EXPECT_GT(registered, 0u);
+  expect_identical(a1, a2);
 }
 
 TYPED_TEST(Determinism, IcpIsBitIdenticalTwiceForAFixedThreadCount) {

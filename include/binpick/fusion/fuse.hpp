@@ -16,7 +16,9 @@
 /// \endcode
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <exception>
 #include <vector>
 
 #include "binpick/core/brown_conrady_camera.hpp"
@@ -57,17 +59,15 @@ struct FusionSettings {
   Scalar delta = Scalar(0);                ///< [m] voting threshold δ; 0 = 2 × sensor_accuracy (Alg. 1)
   int min_votes = 1;                       ///< fewer votes → no measurement (1: a single view passes)
   bool compute_votes = false;              ///< also output the per-pixel vote count (a confidence map)
-  /// 0 = all cores. Reprojection and voting give the same bits for any count. With register_views,
-  /// ICP's sums are split in one block per thread (registration/detail/parallel.hpp), so registered
-  /// poses, and the pixels they move, can change in the last bits with the thread count (measured in
-  /// tests/reliability: none in float, 4e-16 in double pose entries); for a given count, every run
-  /// gives the same bits.
+  /// 0 = all cores. The result has the same bits for any count: reprojection and voting have no
+  /// reduction across threads, and views 2..n are registered in parallel, each view's ICP on one
+  /// thread (IcpSettings::num_threads is ignored here).
   int num_threads = 1;
 
   /// Register views 2..n to view 1 with point-to-plane ICP before voting (§III.B.2).
   bool register_views = true;
   /// ICP of the registration: projective association into view 1, every 4th row and column of the
-  /// source, Tukey kernel. Its num_threads is replaced by this struct's.
+  /// source, Tukey kernel. Its num_threads is not used (see num_threads above).
   IcpSettings<Scalar> icp = default_icp();
   ProjectiveAssociationSettings association{};  ///< search window in view 1
   /// Estimate normals for the source points: points without one (depth edges, holes) are left out,
@@ -175,6 +175,10 @@ struct FusionResult {
   Isometry3<Scalar> T_base_target;  ///< pose of the target camera in the robot base frame
   std::vector<FusionViewReport<Scalar>> views;
   std::size_t valid_pixels = 0;     ///< valid pixels of the fused depth
+  /// Measured wall time [ms] of the stages: registration of views 2..n (view 1's normals, the
+  /// sources' normals, ICP; 0 when off), line 1 of Alg. 1 (view 1 decoded, the others reprojected)
+  /// and the vote (lines 2-10).
+  double registration_ms = 0, reprojection_ms = 0, voting_ms = 0;
 };
 
 /// Reusable fusion context for one camera: keeps the camera's ray table, the per-view planes and the
@@ -251,7 +255,14 @@ class Fuser {
       result.views[i].T_base_view = T_base_views[i];
       result.views[i].pose = i < first_reprojected ? ViewPose::reference : ViewPose::kinematic;
     }
+    using clock = std::chrono::steady_clock;
+    const auto ms_since = [](clock::time_point t0) {
+      return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+    };
+    auto t0 = clock::now();
     if (settings.register_views && views.size() > 1) register_to_first(views, T_base_views, settings, threads, result);
+    result.registration_ms = ms_since(t0);
+    t0 = clock::now();
 
     // Line 1 of Alg. 1: one plane per view (the target view decoded, the others reprojected). Views are
     // independent, so threads take whole views and the result does not depend on the thread count.
@@ -267,6 +278,9 @@ class Fuser {
                                            Isometry3<Scalar>(T_target_base * result.views[std::size_t(i)].T_base_view),
                                            camera_, plane);
     }
+
+    result.reprojection_ms = ms_since(t0);
+    t0 = clock::now();
 
     // Lines 2-10: vote per pixel; rows are independent.
     std::vector<const Scalar*> ptrs(nplanes);
@@ -291,6 +305,7 @@ class Fuser {
     }
 
     result.valid_pixels = result.depth.valid_count();
+    result.voting_ms = ms_since(t0);
   }
 
   // The projective target of the registration: view 1, decimated when the camera model allows it,
@@ -323,39 +338,57 @@ class Fuser {
     st.normals.num_threads = threads;  // never more threads than the caller asked for
     ProjectiveAssociation<Scalar, Camera> reference = make_reference(views[0], st);
     const Isometry3<Scalar> T_ref_base = T_base_views[0].inverse(Eigen::Isometry);
+    // Views are registered in parallel, each on one thread: a pose then has the same bits for any
+    // thread count, and three views on two threads took less time than each view's sums split over
+    // both (bench_cycle, 1280x1024). View 1's normals above use all threads.
     IcpSettings<Scalar> icp_settings = settings.icp;
-    icp_settings.num_threads = threads;
+    icp_settings.num_threads = 1;
     IcpSettings<Scalar> icp_strided = icp_settings;
     icp_strided.stride = 1;  // the image grid is subsampled by backproject_points
-    for (std::size_t i = 1; i < views.size(); ++i) {
-      FusionViewReport<Scalar>& rep = result.views[i];
-      const Isometry3<Scalar> T_ref_view_prior = T_ref_base * T_base_views[i];
-      const IcpResult<Scalar> r =
-          settings.source_normals
-              ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, st.normals)
-              : icp(backproject_points(views[i], camera_, std::max(1, settings.icp.stride)), reference, T_ref_view_prior,
-                    icp_strided);
-      const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
-      rep.icp_status = r.status;
-      rep.icp_rmse = r.rmse;
-      rep.icp_inliers = r.inliers;
-      rep.icp_iterations = r.iterations;
-      rep.correction_translation = correction.translation().norm();
-      rep.correction_rotation = rotation_angle(correction);
-      // A run that hit max_iterations still moved the view toward view 1; within the bounds it is
-      // better than the late kinematic pose.
-      const bool usable = r.ok() || r.status == IcpStatus::max_iterations;
-      if (!usable) {
-        rep.pose = ViewPose::kept_icp_failed;
-      } else if (!(rep.correction_translation <= settings.max_correction_translation &&
-                   rep.correction_rotation <= settings.max_correction_rotation)) {
-        rep.pose = ViewPose::kept_too_far;
-      } else {
-        rep.pose = ViewPose::registered;
-        rep.T_base_view = T_base_views[0] * r.T_target_source;
+    OrganizedNormalSettings<Scalar> source_normals = settings.normals;
+    source_normals.num_threads = 1;
+    const long nreg = long(views.size()) - 1;
+    if (src_clouds_.size() < std::size_t(nreg)) src_clouds_.resize(std::size_t(nreg));
+    // An exception must not leave a parallel region: kept per view, the first rethrown after it.
+    std::vector<std::exception_ptr> errors(static_cast<std::size_t>(nreg));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1 && nreg > 1)
+    for (long k = 0; k < nreg; ++k) {
+      const std::size_t i = std::size_t(k) + 1;
+      try {
+        FusionViewReport<Scalar>& rep = result.views[i];
+        const Isometry3<Scalar> T_ref_view_prior = T_ref_base * T_base_views[i];
+        const IcpResult<Scalar> r =
+            settings.source_normals
+                ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, source_normals,
+                                   src_clouds_[std::size_t(k)])
+                : icp(backproject_points(views[i], camera_, std::max(1, settings.icp.stride)), reference,
+                      T_ref_view_prior, icp_strided);
+        const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
+        rep.icp_status = r.status;
+        rep.icp_rmse = r.rmse;
+        rep.icp_inliers = r.inliers;
+        rep.icp_iterations = r.iterations;
+        rep.correction_translation = correction.translation().norm();
+        rep.correction_rotation = rotation_angle(correction);
+        // A run that hit max_iterations still moved the view toward view 1; within the bounds it is
+        // better than the late kinematic pose.
+        const bool usable = r.ok() || r.status == IcpStatus::max_iterations;
+        if (!usable) {
+          rep.pose = ViewPose::kept_icp_failed;
+        } else if (!(rep.correction_translation <= settings.max_correction_translation &&
+                     rep.correction_rotation <= settings.max_correction_rotation)) {
+          rep.pose = ViewPose::kept_too_far;
+        } else {
+          rep.pose = ViewPose::registered;
+          rep.T_base_view = T_base_views[0] * r.T_target_source;
+        }
+      } catch (...) {
+        errors[std::size_t(k)] = std::current_exception();
       }
     }
     ref_cloud_ = std::move(reference).release_target();  // the memory serves the next fusion
+    for (const std::exception_ptr& e : errors)
+      if (e) std::rethrow_exception(e);
   }
 
   // The target view's own depths as a plane (+inf = none); returns its valid pixel count.
@@ -385,6 +418,7 @@ class Fuser {
   std::vector<std::vector<Scalar>> planes_;
   DepthImage<Scalar> ref_depth_;       // view 1 decimated for the registration's reference
   OrganizedCloud<Scalar> ref_cloud_;   // its cloud and normals, lent to the association each fusion
+  std::vector<PointCloud<Scalar>> src_clouds_;  // the source clouds of views 2..n
 };
 
 /// One-shot fusion (builds a Fuser; keep a Fuser instead when fusing every cycle).

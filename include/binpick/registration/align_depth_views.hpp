@@ -42,17 +42,28 @@ ProjectiveAssociation<Scalar, Camera> make_projective_target(const DepthImageVie
 /// Registers a source depth view to a prepared target (any association strategy). The stride of
 /// `settings` subsamples the source image's rows and columns; the source normals (used to reject
 /// pairs across creases and occlusion edges, `IcpSettings::max_normal_angle`) are estimated at full
-/// resolution at the kept pixels.
+/// resolution at the kept pixels. The source cloud is built in `source_storage` (keep one across
+/// frames and it allocates once).
+template <typename Scalar, typename SourceCamera, typename Association>
+IcpResult<Scalar> align_depth_view(const DepthImageView<Scalar>& source_depth, const SourceCamera& source_camera,
+                                   const Association& target, const Isometry3<Scalar>& T_target_source_init,
+                                   const IcpSettings<Scalar>& settings, const OrganizedNormalSettings<Scalar>& source_normals,
+                                   PointCloud<Scalar>& source_storage) {
+  require(settings.stride >= 1, "stride", "must be >= 1");
+  IcpSettings<Scalar> s = settings;
+  s.stride = 1;  // applied to the image grid here
+  subsample_with_normals(source_depth, source_camera, settings.stride, source_normals, source_storage);
+  return icp(source_storage, target, T_target_source_init, s);
+}
+
+/// align_depth_view with the source cloud in fresh memory.
 template <typename Scalar, typename SourceCamera, typename Association>
 IcpResult<Scalar> align_depth_view(const DepthImageView<Scalar>& source_depth, const SourceCamera& source_camera,
                                    const Association& target, const Isometry3<Scalar>& T_target_source_init,
                                    const IcpSettings<Scalar>& settings = {},
                                    const OrganizedNormalSettings<Scalar>& source_normals = {}) {
-  require(settings.stride >= 1, "stride", "must be >= 1");
-  IcpSettings<Scalar> s = settings;
-  s.stride = 1;  // applied to the image grid here
-  return icp(subsample_with_normals(source_depth, source_camera, settings.stride, source_normals), target,
-             T_target_source_init, s);
+  PointCloud<Scalar> source;
+  return align_depth_view(source_depth, source_camera, target, T_target_source_init, settings, source_normals, source);
 }
 
 /// One call: builds the projective target from `target_depth` and registers `source_depth` to it.

@@ -197,10 +197,12 @@ PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, i
 /// subsample_with_normals straight from a depth image: only the kept pixels and the four neighbours
 /// each normal needs are backprojected (stride 4 touches under a third of the pixels instead of all of
 /// them). The same points and normals as backproject_organized followed by subsample_with_normals.
-/// Throws std::invalid_argument for stride < 1, settings out of range or a size mismatch.
+/// Written into `out` (its points and normals replaced), reusing its memory: a cloud kept across
+/// frames allocates once. Throws std::invalid_argument for stride < 1, settings out of range or a
+/// size mismatch.
 template <typename Scalar, typename Camera>
-PointCloud<Scalar> subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& camera, int stride,
-                                          const OrganizedNormalSettings<Scalar>& settings = {}) {
+void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& camera, int stride,
+                            const OrganizedNormalSettings<Scalar>& settings, PointCloud<Scalar>& out) {
   static_assert(is_camera_model<Camera>::value, "Camera must model the camera concept (camera_model.hpp)");
   require(stride >= 1, "stride", "must be >= 1");
   require(depth.width() == camera.width() && depth.height() == camera.height(), "depth",
@@ -208,34 +210,47 @@ PointCloud<Scalar> subsample_with_normals(const DepthImageView<Scalar>& depth, c
   registration_detail::require_normal_settings_valid(settings.pixel_offset, double(settings.max_depth_jump_ratio),
                                                       double(settings.max_crease_angle));
   // Dense strides and one-sided edges: the whole organized cloud is needed anyway.
-  if (stride < 3 || settings.one_sided_at_edges)
-    return subsample_with_normals(backproject_organized(depth, camera), stride, settings);
+  if (stride < 3 || settings.one_sided_at_edges) {
+    out = subsample_with_normals(backproject_organized(depth, camera), stride, settings);
+    return;
+  }
   const Scalar cc = registration_detail::cos_crease(settings);
   const int k = settings.pixel_offset, w = depth.width(), h = depth.height();
-  PointCloud<Scalar> out;
+  // Sized for every kept pixel and trimmed at the end: indexed writes instead of push_back.
   const std::size_t kept = std::size_t((w + stride - 1) / stride) * std::size_t((h + stride - 1) / stride);
-  out.points.reserve(kept);
-  out.normals.reserve(kept);
+  out.points.resize(kept);
+  out.normals.resize(kept);
+  std::size_t m = 0;
   // backproject_organized's point at (u, v).
-  const auto point = [&](int u, int v) { return registration_detail::backproject_or_zero<Scalar>(camera, u, v, depth.depth(u, v)); };
+  const registration_detail::PixelBackprojector<Scalar, Camera> backproject(camera);
+  const auto point = [&](int u, int v) { return backproject(u, v, depth.depth(u, v)); };
   // The centre and its four neighbours laid out for organized_normal_interior: offsets ±1 (u), ±2 (v).
   Vector3<Scalar> patch[5];
   for (int v = 0; v < h; v += stride)
     for (int u = 0; u < w; u += stride) {
       patch[2] = point(u, v);
       if (!(patch[2].z() > Scalar(0))) continue;
-      out.points.push_back(patch[2]);
+      out.points[m] = patch[2];
       if (u < k || v < k || u + k >= w || v + k >= h) {  // central differences impossible: no normal
-        out.normals.push_back(Vector3<Scalar>::Zero());
+        out.normals[m++] = Vector3<Scalar>::Zero();
         continue;
       }
       patch[1] = point(u - k, v);
       patch[3] = point(u + k, v);
       patch[0] = point(u, v - k);
       patch[4] = point(u, v + k);
-      out.normals.push_back(
-          registration_detail::organized_normal_interior(patch + 2, 1, 2, settings.max_depth_jump_ratio, cc));
+      out.normals[m++] = registration_detail::organized_normal_interior(patch + 2, 1, 2, settings.max_depth_jump_ratio, cc);
     }
+  out.points.resize(m);
+  out.normals.resize(m);
+}
+
+/// subsample_with_normals from a depth image into a new cloud.
+template <typename Scalar, typename Camera>
+PointCloud<Scalar> subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& camera, int stride,
+                                          const OrganizedNormalSettings<Scalar>& settings = {}) {
+  PointCloud<Scalar> out;
+  subsample_with_normals(depth, camera, stride, settings, out);
   return out;
 }
 
