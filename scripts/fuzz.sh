@@ -2,7 +2,7 @@
 # Fuzzes every reader of the tools (16-bit PNG depth, pose files, intrinsics/number strings, PLY/PCD
 # clouds when present) with libFuzzer + ASan + UBSan, each for N seconds with a fixed seed.
 # Usage: bash scripts/fuzz.sh [seconds-per-target] [build-dir]
-#   CI:        bash scripts/fuzz.sh 25
+#   CI:        bash scripts/fuzz.sh 15
 #   long run:  bash scripts/fuzz.sh 3600          (an hour per target; keeps the corpus in
 #              <build-dir>/corpus/<target> so a later long run continues from it: FUZZ_KEEP_CORPUS=1)
 # A crash leaves the input in <build-dir>/artifacts/<target>/; turn it into a regression test by
