@@ -348,7 +348,6 @@ class Fuser {
     OrganizedNormalSettings<Scalar> source_normals = settings.normals;
     source_normals.num_threads = 1;
     const long nreg = long(views.size()) - 1;
-    if (src_clouds_.size() < std::size_t(nreg)) src_clouds_.resize(std::size_t(nreg));
     // An exception must not leave a parallel region: kept per view, the first rethrown after it.
     std::vector<std::exception_ptr> errors(static_cast<std::size_t>(nreg));
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1 && nreg > 1)
@@ -359,8 +358,7 @@ class Fuser {
         const Isometry3<Scalar> T_ref_view_prior = T_ref_base * T_base_views[i];
         const IcpResult<Scalar> r =
             settings.source_normals
-                ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, source_normals,
-                                   src_clouds_[std::size_t(k)])
+                ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, source_normals)
                 : icp(backproject_points(views[i], camera_, std::max(1, settings.icp.stride)), reference,
                       T_ref_view_prior, icp_strided);
         const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
@@ -418,7 +416,6 @@ class Fuser {
   std::vector<std::vector<Scalar>> planes_;
   DepthImage<Scalar> ref_depth_;       // view 1 decimated for the registration's reference
   OrganizedCloud<Scalar> ref_cloud_;   // its cloud and normals, lent to the association each fusion
-  std::vector<PointCloud<Scalar>> src_clouds_;  // the source clouds of views 2..n
 };
 
 /// One-shot fusion (builds a Fuser; keep a Fuser instead when fusing every cycle).
