@@ -136,6 +136,10 @@ struct EstimatorWorkspace {
   DepthGrid<Scalar> grid;
   std::vector<std::int32_t> label;  // segment id per cell
   std::vector<std::uint8_t> owned;  // cell claimed by a kept hypothesis
+  // Segments as one flat list: the cells of segment k are members[begin[k] .. begin[k + 1]). A grid of
+  // shiny parts has thousands of speck segments; a list per segment made the heap grow in steps.
+  std::vector<std::uint32_t> members, begin, stack;
+  std::vector<std::uint8_t> member;  // cell of the candidate being tested (all 0 between tests)
 };
 
 template <typename Scalar>
@@ -252,7 +256,7 @@ class ReferenceEstimator {
     ReferenceEstimation<Scalar> out;
     make_grid(input, cam, ws.grid);
     const detail::DepthGrid<Scalar>& grid = ws.grid;
-    std::vector<std::vector<std::uint32_t>> candidates = segment(grid, ws.label);
+    std::vector<std::vector<std::uint32_t>> candidates = segment(grid, ws);
     out.candidates = int(candidates.size());
 
     std::vector<detail::Hypothesis<Scalar>> best(candidates.size());
@@ -376,11 +380,16 @@ class ReferenceEstimator {
   }
 
   // 2. Depth-continuous, non-concave segments; split when larger than a part; top-most first.
-  std::vector<std::vector<std::uint32_t>> segment(const detail::DepthGrid<Scalar>& g, std::vector<std::int32_t>& label) const {
+  std::vector<std::vector<std::uint32_t>> segment(const detail::DepthGrid<Scalar>& g, detail::EstimatorWorkspace<Scalar>& ws) const {
     const std::size_t n = g.points.size();
+    std::vector<std::int32_t>& label = ws.label;
     label.assign(n, -1);
-    std::vector<std::vector<std::uint32_t>> segments;
-    std::vector<std::uint32_t> stack;
+    std::vector<std::uint32_t>& members = ws.members;
+    std::vector<std::uint32_t>& begin = ws.begin;
+    std::vector<std::uint32_t>& stack = ws.stack;
+    members.clear();
+    members.reserve(n);
+    begin.clear();
     auto linked = [&](std::size_t a, std::size_t b) {
       if (!g.valid(b)) return false;
       const Vec3 d = g.points[b] - g.points[a];
@@ -392,9 +401,8 @@ class ReferenceEstimator {
     };
     for (std::size_t seed = 0; seed < n; ++seed) {
       if (label[seed] >= 0 || !g.valid(seed)) continue;
-      const std::int32_t id = std::int32_t(segments.size());
-      segments.emplace_back();
-      auto& members = segments.back();
+      const std::int32_t id = std::int32_t(begin.size());
+      begin.push_back(std::uint32_t(members.size()));
       label[seed] = id;
       stack.assign(1, std::uint32_t(seed));
       while (!stack.empty()) {
@@ -412,13 +420,24 @@ class ReferenceEstimator {
         }
       }
     }
+    begin.push_back(std::uint32_t(members.size()));
     struct Candidate {
       Scalar top;
       std::vector<std::uint32_t> cells;
     };
     std::vector<Candidate> out;
     const Scalar background_area = s_.max_segment_area_factor * max_area_;
-    for (auto& seg : segments) {
+    struct Span {  // one segment's cells in `members`
+      const std::uint32_t *b, *e;
+      const std::uint32_t* begin() const { return b; }
+      const std::uint32_t* end() const { return e; }
+      std::size_t size() const { return std::size_t(e - b); }
+      std::uint32_t operator[](std::size_t i) const { return b[i]; }
+    };
+    for (std::size_t sid = 0; sid + 1 < begin.size(); ++sid) {
+      const std::uint32_t* const first = members.data() + begin[sid];
+      const std::uint32_t* const last = members.data() + begin[sid + 1];
+      const Span seg{first, last};
       Scalar area = 0;
       for (const auto c : seg) area += g.footprint[c] * g.footprint[c];
       if (area < s_.min_segment_area || area > background_area) continue;
@@ -440,12 +459,13 @@ class ReferenceEstimator {
       if (radius <= Scalar(1.2) * max_radius_) {
         Scalar top = std::numeric_limits<Scalar>::max();
         for (const auto c : seg) top = std::min(top, g.points[c].z());
-        out.push_back({top, std::move(seg)});
+        out.push_back({top, std::vector<std::uint32_t>(first, last)});
         continue;
       }
       // Larger than a part (touching parts not split by a crease): pieces around the top-most points.
       if (!s_.split_large_segments) continue;
-      std::sort(seg.begin(), seg.end(), [&](std::uint32_t a, std::uint32_t b) { return g.points[a].z() < g.points[b].z(); });
+      std::sort(members.begin() + begin[sid], members.begin() + begin[sid + 1],
+                [&](std::uint32_t a, std::uint32_t b) { return g.points[a].z() < g.points[b].z(); });
       std::vector<std::uint8_t> taken(seg.size(), 0);
       for (int piece = 0; piece < 8; ++piece) {
         std::size_t s0 = 0;
@@ -465,7 +485,8 @@ class ReferenceEstimator {
     }
     // Local height maxima only: a part on top is surrounded by deeper surface or holes; a strip of a
     // steep wall (or a part deep under others) has nearer surface along much of its border.
-    std::vector<std::uint8_t> member(n, 0);
+    std::vector<std::uint8_t>& member = ws.member;
+    member.assign(n, 0);
     out.erase(std::remove_if(out.begin(), out.end(),
                              [&](const Candidate& c) {
                                for (const auto k : c.cells) member[k] = 1;
