@@ -17,46 +17,10 @@
 #include "binpick/core/depth_image.hpp"
 #include "binpick/core/detail/simd.hpp"
 #include "binpick/core/pose.hpp"
+#include "binpick/core/ray_table.hpp"
 
 namespace binpick {
 namespace detail {
-
-/// Normalized ray (x/z, y/z) of every source pixel, computed once per camera so the per-pixel work is
-/// independent of the lens model. Pinhole rays are separable (one x per column, one y per row).
-/// Extra elements at the end of ray tables so SIMD loads past the last pixel stay in bounds.
-constexpr std::size_t kRayPad = 16;
-
-template <typename Scalar>
-struct RayTable {
-  int width = 0, height = 0;
-  bool separable = false;
-  std::vector<Scalar> x, y;  // separable: x[width], y[height]; else x, y [width * height]
-
-  template <typename Camera>
-  static RayTable make(const Camera& camera) {
-    RayTable t;
-    t.width = camera.width();
-    t.height = camera.height();
-    if constexpr (std::is_same<Camera, PinholeCamera<Scalar>>::value) {
-      t.separable = true;
-      t.x.resize(std::size_t(t.width) + kRayPad);
-      t.y.resize(std::size_t(t.height) + kRayPad);
-      for (int u = 0; u < t.width; ++u) t.x[std::size_t(u)] = (Scalar(u) - camera.cx()) / camera.fx();
-      for (int v = 0; v < t.height; ++v) t.y[std::size_t(v)] = (Scalar(v) - camera.cy()) / camera.fy();
-    } else {
-      const std::size_t n = std::size_t(t.width) * std::size_t(t.height);
-      t.x.resize(n + kRayPad);
-      t.y.resize(n + kRayPad);
-      for (int v = 0; v < t.height; ++v)
-        for (int u = 0; u < t.width; ++u) {
-          const auto p = camera.backproject(Scalar(u), Scalar(v), Scalar(1));
-          t.x[std::size_t(v) * t.width + u] = p.x();
-          t.y[std::size_t(v) * t.width + u] = p.y();
-        }
-    }
-    return t;
-  }
-};
 
 /// Projection of a target-frame point to an integer pixel index, or -1. The pinhole model is folded
 /// into the transform (its rows are K_target * [R | t]) so the inner loop has no optional and no call.

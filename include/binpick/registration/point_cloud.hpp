@@ -18,6 +18,7 @@
 #include "binpick/core/depth_image.hpp"
 #include "binpick/core/errors.hpp"
 #include "binpick/core/pose.hpp"
+#include "binpick/core/ray_table.hpp"
 
 namespace binpick {
 
@@ -52,10 +53,9 @@ Vector3<Scalar> backproject_or_zero(const Camera& camera, int u, int v, Scalar z
   return p.allFinite() ? p : Vector3<Scalar>::Zero().eval();
 }
 
-/// backproject_or_zero for many pixels of one camera. A pinhole camera's rays are separable: the
-/// factors (u − cx) / fx of every column and (v − cy) / fy of every row are computed once, so a pixel
-/// costs two products instead of two divisions and a call (the same bits: the camera computes the
-/// same factor, then multiplies by the depth). Other models call the camera.
+/// backproject_or_zero for many pixels of one camera. A pinhole camera's rays come from its ray table
+/// (core/ray_table.hpp): a pixel costs two products instead of two divisions and a call, with the same
+/// bits. Other models call the camera (a whole-image table would cost more than one pass saves).
 template <typename Scalar, typename Camera>
 class PixelBackprojector {
  public:
@@ -69,20 +69,16 @@ class PixelBackprojector {
 template <typename Scalar>
 class PixelBackprojector<Scalar, PinholeCamera<Scalar>> {
  public:
-  explicit PixelBackprojector(const PinholeCamera<Scalar>& camera)
-      : x_(std::size_t(std::max(0, camera.width()))), y_(std::size_t(std::max(0, camera.height()))) {
-    for (std::size_t u = 0; u < x_.size(); ++u) x_[u] = (Scalar(int(u)) - camera.cx()) / camera.fx();
-    for (std::size_t v = 0; v < y_.size(); ++v) y_[v] = (Scalar(int(v)) - camera.cy()) / camera.fy();
-  }
+  explicit PixelBackprojector(const PinholeCamera<Scalar>& camera) : rays_(detail::RayTable<Scalar>::make(camera)) {}
   /// (u, v) inside the camera's image.
   Vector3<Scalar> operator()(int u, int v, Scalar z) const {
     if (!(z > Scalar(0))) return Vector3<Scalar>::Zero();
-    const Vector3<Scalar> p(x_[std::size_t(u)] * z, y_[std::size_t(v)] * z, z);
+    const Vector3<Scalar> p(rays_.x[std::size_t(u)] * z, rays_.y[std::size_t(v)] * z, z);
     return p.allFinite() ? p : Vector3<Scalar>::Zero().eval();
   }
 
  private:
-  std::vector<Scalar> x_, y_;
+  detail::RayTable<Scalar> rays_;
 };
 }  // namespace registration_detail
 
