@@ -29,7 +29,7 @@ int main(int argc, char** argv) {
     // The sensor's field of view: about 75 x 50 cm at 0.3 m.
     const float fx = float(sz.w) * 0.3f / 0.75f, fy = fx;
     const PinholeCamera<float> cam(fx, fy, (sz.w - 1) * 0.5f, (sz.h - 1) * 0.5f, sz.w, sz.h);
-    sim::Scene scene = sim::boxes_scene();
+    sim::BoxScene scene = sim::boxes_scene();
     const auto poses = sim::arc_poses(n_views);
     std::vector<DepthImage<float>> imgs;
     std::mt19937 rng(7);

@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   }
   const int w = 640, h = 512;
   const PinholeCamera<float> camera(256.f, 256.f, (w - 1) * 0.5f, (h - 1) * 0.5f, w, h);  // ~75 x 50 cm at 0.3 m
-  const sim::Scene scene = sim::boxes_scene();
+  const sim::BoxScene scene = sim::boxes_scene();
   const auto poses = sim::arc_poses(4);
   std::mt19937 rng(seed);
   std::normal_distribution<float> noise(0.f, 0.0005f);

@@ -156,7 +156,7 @@ class FusionScene : public ::testing::Test {
     for (const auto& T : poses) truth.push_back(scene.render<double>(cam, T));
   }
   PinholeCamera<double> cam = small_camera<double>();
-  sim::Scene scene = sim::boxes_scene();
+  sim::BoxScene scene = sim::boxes_scene();
   std::vector<Isometry3<double>> poses;
   std::vector<DepthImage<double>> truth;
 };

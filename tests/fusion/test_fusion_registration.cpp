@@ -41,7 +41,7 @@ double mean_abs_error(const DepthImage<double>& fused, const DepthImage<double>&
 
 TEST(FusionRegistration, MotionCorruptedPosesAreCorrectedBeforeVoting) {
   const PinholeCamera<double> cam(250, 250, 159.5, 127.5, 320, 256);
-  const sim::Scene scene = sim::boxes_scene();
+  const sim::BoxScene scene = sim::boxes_scene();
   const double speed = 0.5, latency = 0.02, radius = 0.3;  // 0.5 m/s, 20 ms late: 10 mm along the arc
   std::vector<DepthImage<double>> views;
   std::vector<Isometry3<double>> T_true, T_kinematic;
@@ -94,7 +94,7 @@ TEST(FusionRegistration, MotionCorruptedPosesAreCorrectedBeforeVoting) {
 // other settings in between.
 TEST(FusionRegistration, KeptFuserAndResultGiveTheBitsOfFreshOnes) {
   const PinholeCamera<double> cam(250, 250, 159.5, 127.5, 320, 256);
-  const sim::Scene scene = sim::boxes_scene();
+  const sim::BoxScene scene = sim::boxes_scene();
   auto cycle_views = [&](double a0, int n, std::vector<DepthImage<double>>& images, std::vector<Isometry3<double>>& poses) {
     for (int i = 0; i < n; ++i) {
       const double a = a0 + 0.04 * i;
@@ -142,7 +142,7 @@ TEST(FusionRegistration, KeptFuserAndResultGiveTheBitsOfFreshOnes) {
 
 TEST(FusionRegistration, CorrectionBeyondTheBoundKeepsTheKinematicPose) {
   const PinholeCamera<double> cam(250, 250, 159.5, 127.5, 320, 256);
-  const sim::Scene scene = sim::boxes_scene();
+  const sim::BoxScene scene = sim::boxes_scene();
   const auto T0 = arc_pose(0.0), T1 = arc_pose(0.04);
   Isometry3<double> T1_bad = T1;
   T1_bad.translation().z() += 0.008;  // an 8 mm kinematic error along the view...

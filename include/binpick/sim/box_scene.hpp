@@ -17,7 +17,7 @@ struct Box {
   Eigen::Vector3d lo, hi;  // axis-aligned, base frame [m]
 };
 
-struct Scene {
+struct BoxScene {
   double floor_z = 0.0;  // plane z = floor_z
   std::vector<Box> boxes;
 
@@ -80,8 +80,8 @@ inline Isometry3<double> look_at(const Eigen::Vector3d& eye, const Eigen::Vector
 }
 
 /// A small bin-like scene: floor and a few boxes a few centimetres tall.
-inline Scene boxes_scene() {
-  Scene s;
+inline BoxScene boxes_scene() {
+  BoxScene s;
   s.boxes.push_back({Eigen::Vector3d(-0.06, -0.04, 0.0), Eigen::Vector3d(-0.01, 0.02, 0.03)});
   s.boxes.push_back({Eigen::Vector3d(0.02, -0.05, 0.0), Eigen::Vector3d(0.07, -0.01, 0.05)});
   s.boxes.push_back({Eigen::Vector3d(0.00, 0.03, 0.0), Eigen::Vector3d(0.05, 0.07, 0.02)});
