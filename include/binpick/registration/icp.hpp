@@ -231,20 +231,24 @@ struct PointAccumulator {
 
 /// Solves H δ = −g in the observable subspace (see the file comment). Returns the number of
 /// unobservable directions; δ = [ω (rotation about c), v (translation)].
-inline int solve_observable(const Eigen::Matrix<double, 6, 6>& H, const Eigen::Matrix<double, 6, 1>& g,
-                            double threshold, Eigen::Matrix<double, 6, 1>& delta) {
+/// A template (Real = double) so the eigen solver is compiled only in the translation units that run ICP.
+template <typename Real = double>
+int solve_observable(const Eigen::Matrix<Real, 6, 6>& H, const Eigen::Matrix<Real, 6, 1>& g, Real threshold,
+                     Eigen::Matrix<Real, 6, 1>& delta) {
+  using Mat6 = Eigen::Matrix<Real, 6, 6>;
+  using Vec6 = Eigen::Matrix<Real, 6, 1>;
   // Block-isotropic scaling keeps "not moved" meaningful: a null direction of pure translation stays
   // orthogonal to the update in the metric of metres.
-  const double tr_r = H.topLeftCorner<3, 3>().trace() / 3, tr_t = H.bottomRightCorner<3, 3>().trace() / 3;
-  const double s_r = tr_r > 0 ? 1 / std::sqrt(tr_r) : 0, s_t = tr_t > 0 ? 1 / std::sqrt(tr_t) : 0;
-  Eigen::Matrix<double, 6, 1> d;
+  const Real tr_r = H.template topLeftCorner<3, 3>().trace() / 3, tr_t = H.template bottomRightCorner<3, 3>().trace() / 3;
+  const Real s_r = tr_r > 0 ? 1 / std::sqrt(tr_r) : 0, s_t = tr_t > 0 ? 1 / std::sqrt(tr_t) : 0;
+  Vec6 d;
   d << s_r, s_r, s_r, s_t, s_t, s_t;
-  const Eigen::Matrix<double, 6, 6> Hs = d.asDiagonal() * H * d.asDiagonal();
-  const Eigen::Matrix<double, 6, 1> gs = d.asDiagonal() * g;
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(Hs);
-  const Eigen::Matrix<double, 6, 1> lambda = es.eigenvalues();  // ascending
-  const double lmax = lambda(5);
-  Eigen::Matrix<double, 6, 1> ds = Eigen::Matrix<double, 6, 1>::Zero();
+  const Mat6 Hs = d.asDiagonal() * H * d.asDiagonal();
+  const Vec6 gs = d.asDiagonal() * g;
+  Eigen::SelfAdjointEigenSolver<Mat6> es(Hs);
+  const Vec6 lambda = es.eigenvalues();  // ascending
+  const Real lmax = lambda(5);
+  Vec6 ds = Vec6::Zero();
   int unobservable = 0;
   for (int i = 0; i < 6; ++i) {
     if (!(lmax > 0) || !(lambda(i) > threshold * lmax)) {
@@ -266,6 +270,16 @@ Isometry3<Scalar> orthonormalized(const Isometry3<Scalar>& T) {
   return out;
 }
 
+/// The normal rule of pairing: the source normal ns, rotated into the target frame by R, and the target
+/// normal nt differ by at most the angle whose cosine is cos_max. Written on components: Eigen's fixed
+/// 3-vector expressions cost several times more in the point-to-plane loop.
+template <typename Scalar>
+inline bool normals_agree(const Eigen::Matrix<Scalar, 3, 3>& R, const Scalar* ns, const Scalar* nt, Scalar cos_max) {
+  const Scalar rx = R(0, 0) * ns[0] + R(0, 1) * ns[1] + R(0, 2) * ns[2];
+  const Scalar ry = R(1, 0) * ns[0] + R(1, 1) * ns[1] + R(1, 2) * ns[2];
+  const Scalar rz = R(2, 0) * ns[0] + R(2, 1) * ns[1] + R(2, 2) * ns[2];
+  return rx * nt[0] + ry * nt[1] + rz * nt[2] >= cos_max;
+}
 }  // namespace registration_detail
 
 /// Registers `source` (source frame [m]; normals optional, used to reject incompatible pairs) to the
@@ -344,15 +358,14 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
 
   const double max_d = double(settings.max_correspondence_distance), k = double(settings.kernel_scale);
   const double degeneracy = double(settings.degeneracy_threshold);
-  const double cos_normal = std::cos(std::min(double(settings.max_normal_angle), 3.14159265358979323846));
-  // Is the pair (source i, target j) compatible by its normals (rotation R_ts of the current pose)?
-  const auto compatible = [&](const Eigen::Matrix3d& R_ts, std::size_t i, std::ptrdiff_t j) {
-    if (!use_normals) return true;
-    const Eigen::Vector3d ns = source.normals[kept[i]].template cast<double>();
-    if (ns.squaredNorm() < 0.5) return false;  // no source normal: likely an edge point
-    if (!association.has_target_normals()) return true;
-    const Eigen::Vector3d nt = association.target_normal(j).template cast<double>();
-    return nt.squaredNorm() < 0.5 || (R_ts * ns).dot(nt) >= cos_normal;
+  const Scalar cos_normal = Scalar(std::cos(std::min(double(settings.max_normal_angle), 3.14159265358979323846)));
+  const bool check_normals = use_normals && association.has_target_normals();
+  // Is the pair (source i with a normal — usable() — and target j) compatible by its normals, under the
+  // rotation R_ts of the current pose? A target point without a normal passes.
+  const auto compatible = [&](const Eigen::Matrix<Scalar, 3, 3>& R_ts, std::ptrdiff_t i, std::ptrdiff_t j) {
+    if (!check_normals) return true;
+    const Vector3<Scalar>& nt = association.target_normal(j);
+    return nt.squaredNorm() < Scalar(0.5) || rd::normals_agree(R_ts, src_normal(i), nt.data(), cos_normal);
   };
   Eigen::Isometry3d T = T_target_source_init.template cast<double>();
   std::vector<Vector3<Scalar>> moved(fused ? 0 : kept.size());
@@ -372,26 +385,20 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
 
     Eigen::Isometry3d dT = Eigen::Isometry3d::Identity();
     const Eigen::Vector3d c = T * centroid_src;
-    const Eigen::Matrix3d R_ts = T.linear();
+    const Eigen::Matrix<Scalar, 3, 3> Rs = T.linear().cast<Scalar>();
     if (plane) {
       // The hot loop in Scalar (see kPlaneBlock); r_i and J_i as in the file comment, step 3.
       const Vector3<Scalar> cs = c.cast<Scalar>();
-      const Eigen::Matrix<Scalar, 3, 3> Rs = R_ts.cast<Scalar>();
-      const Scalar max_ds = Scalar(max_d), ks = Scalar(k), cos_ns = Scalar(cos_normal);
-      const bool check_normals = use_normals && association.has_target_normals();
+      const Scalar max_ds = Scalar(max_d), ks = Scalar(k);
       // Appends the pair (moved source point q with normal ns, target j) to the block's rows unless
-      // rejected. Written on components: Eigen's fixed 3-vector expressions cost several times more here.
+      // rejected (point-to-plane needs the target normal). Written on components: Eigen's fixed 3-vector
+      // expressions cost several times more here.
       const auto add_pair = [&](rd::PlaneBlock<Scalar>& blk, int& m, const Scalar* q, const Scalar* ns,
                                 std::ptrdiff_t j) {
         const Scalar* nt = association.target_normal(j).data();
         const Scalar nx = nt[0], ny = nt[1], nz = nt[2];
         if (nx * nx + ny * ny + nz * nz < Scalar(0.5)) return;  // unknown normal
-        if (check_normals) {  // compatible(): same rule, in Scalar (source points have normals)
-          const Scalar rx = Rs(0, 0) * ns[0] + Rs(0, 1) * ns[1] + Rs(0, 2) * ns[2];
-          const Scalar ry = Rs(1, 0) * ns[0] + Rs(1, 1) * ns[1] + Rs(1, 2) * ns[2];
-          const Scalar rz = Rs(2, 0) * ns[0] + Rs(2, 1) * ns[1] + Rs(2, 2) * ns[2];
-          if (rx * nx + ry * ny + rz * nz < cos_ns) return;
-        }
+        if (check_normals && !rd::normals_agree(Rs, ns, nt, cos_normal)) return;  // compatible()'s rule
         const Scalar* y = association.target_point(j).data();
         const Scalar r = nx * (q[0] - y[0]) + ny * (q[1] - y[1]) + nz * (q[2] - y[2]);
         if (!(std::abs(r) <= max_ds)) return;
@@ -458,7 +465,7 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
           n, threads, rd::PointAccumulator{},
           [&](rd::PointAccumulator& a, std::ptrdiff_t i) {
             const std::ptrdiff_t j = partners[std::size_t(i)];
-            if (j < 0 || !compatible(R_ts, std::size_t(i), j)) return;
+            if (j < 0 || !compatible(Rs, i, j)) return;
             const Eigen::Vector3d q = moved[std::size_t(i)].template cast<double>();
             const Eigen::Vector3d y = association.target_point(j).template cast<double>();
             const double d2 = (q - y).squaredNorm();
