@@ -115,6 +115,42 @@ void check_kdtree_exact() {
       RC_ASSERT(std::abs(double((pts[std::size_t(idx[e])] - queries[q]).squaredNorm()) - double(d2[e])) <= 1e-5 * (1 + double(d2[e])));
     }
   }
+  // The bounded one-query search: the nearest point strictly inside the bound, or none.
+  const Scalar bound = Scalar(uniform(0, 4));
+  for (const auto& q : queries) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& p : pts)
+      if (p.allFinite()) best = std::min(best, double((p - q).squaredNorm()));
+    Scalar d = Scalar(-1);
+    const std::ptrdiff_t j = tree.nearest(q.data(), bound, d);
+    const double tol = 1e-5 * (1 + best);
+    if (best < double(bound) - tol) {
+      RC_ASSERT(j >= 0);
+      RC_ASSERT(std::abs(double(d) - best) <= tol);
+      RC_ASSERT(std::abs(double((pts[std::size_t(j)] - q).squaredNorm()) - best) <= tol);
+    } else if (best > double(bound) + tol) {
+      RC_ASSERT(j == -1);
+    }
+  }
+  // The association's point-wise partner and its batch agree (the batch is made of the point-wise).
+  if (!pts.empty()) {
+    PointCloud<Scalar> cloud;
+    cloud.points = pts;
+    const KnnAssociation<Scalar> assoc(cloud);
+    const Scalar max_distance = Scalar(uniform(0, 2));
+    std::vector<std::ptrdiff_t> partners;
+    assoc.associate(queries, max_distance, 2, partners);
+    RC_ASSERT(partners.size() == queries.size());
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+      RC_ASSERT(partners[i] == assoc.partner(queries[i], max_distance));
+      double best = std::numeric_limits<double>::infinity();
+      for (const auto& p : pts)
+        if (p.allFinite()) best = std::min(best, double((p - queries[i]).squaredNorm()));
+      const double r2 = double(max_distance) * double(max_distance), tol = 1e-5 * (1 + best);
+      if (best < r2 - tol) RC_ASSERT(partners[i] >= 0);
+      if (best > r2 + tol) RC_ASSERT(partners[i] == -1);
+    }
+  }
 }
 
 }  // namespace

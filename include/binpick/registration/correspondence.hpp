@@ -22,7 +22,7 @@
 ///                  int num_threads, std::vector<std::ptrdiff_t>& partners) const;
 ///   // Optional, point-wise: the partner of one query, or -1 (same rule as associate). With it,
 ///   // point-to-plane ICP moves, associates and sums each point in one pass, without per-iteration
-///   // arrays (ProjectiveAssociation has it; a kd-tree is faster queried in batches).
+///   // arrays (both shipped strategies have it; their associate() is made of it).
 ///   std::ptrdiff_t partner(const Eigen::Matrix<Scalar, 3, 1>& query, Scalar max_distance) const;
 /// };
 /// \endcode

@@ -1,7 +1,9 @@
 #pragma once
 /// \file kdtree.hpp
-/// The FLANN seam of the registration module: a kd-tree over 3-D points (`flann::Index` with
-/// `flann::KDTreeSingleIndexParams`), exact by default, approximate when `eps` > 0. Only kNN
+/// The FLANN seam of the registration module: a kd-tree over 3-D points (FLANN's single kd-tree,
+/// `flann::KDTreeSingleIndex` — the index `flann::Index` builds for `flann::KDTreeSingleIndexParams`,
+/// held directly because the wrapper hides its one-query search), exact by default, approximate when
+/// `eps` > 0. Only kNN
 /// association and kNN normals include this header; the rest of the library compiles without FLANN.
 
 #include <cstddef>
@@ -15,6 +17,28 @@
 #include "binpick/core/pose.hpp"
 
 namespace binpick {
+namespace registration_detail {
+/// FLANN result set of the one nearest point strictly nearer than a bound (the association's maximum
+/// distance); it holds no heap memory.
+template <typename D>
+class NearestWithin final : public flann::ResultSet<D> {
+ public:
+  explicit NearestWithin(D bound) : worst_(bound) {}
+  bool full() const override { return true; }
+  void addPoint(D dist, std::size_t index) override {
+    if (dist < worst_) {
+      worst_ = dist;
+      index_ = index;
+    }
+  }
+  D worstDist() const override { return worst_; }
+  std::size_t index() const { return index_; }
+
+ private:
+  D worst_;
+  std::size_t index_ = std::numeric_limits<std::size_t>::max();
+};
+}  // namespace registration_detail
 
 template <typename Scalar>
 struct KdTreeSettings {
@@ -32,6 +56,7 @@ class KdTree {
   /// Throws std::invalid_argument for leaf_max_size < 1 or a negative / non-finite eps.
   explicit KdTree(const std::vector<Vector3<Scalar>>& points, const KdTreeSettings<Scalar>& settings = {})
       : settings_(settings) {
+    search_params_.eps = float(settings.eps);
     require(settings.leaf_max_size >= 1, "leaf_max_size", "must be >= 1");
     require(std::isfinite(settings.eps) && settings.eps >= Scalar(0), "eps", "must be finite and >= 0");
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -52,6 +77,17 @@ class KdTree {
 
   /// Number of (finite) points in the tree.
   std::size_t size() const { return ids_.size(); }
+
+  /// The nearest tree point to `query` (finite) at a squared distance below `bound_squared`, or -1;
+  /// `squared_distance` receives its squared distance. Exact (or within eps, as knn()).
+  std::ptrdiff_t nearest(const Scalar* query, Scalar bound_squared, Scalar& squared_distance) const {
+    if (!index_) return -1;
+    registration_detail::NearestWithin<Scalar> result(bound_squared);
+    index_->findNeighbors(result, query, search_params_);
+    if (result.index() >= ids_.size()) return -1;
+    squared_distance = result.worstDist();
+    return std::ptrdiff_t(ids_[result.index()]);
+  }
 
   /// The k nearest tree points of each of `n` queries (row-major n×3 array, finite). Row i of
   /// `indices` / `squared_distances` (n×k) holds them nearest first; entries past the number of tree
@@ -80,11 +116,12 @@ class KdTree {
   }
 
  private:
-  using Index = flann::Index<flann::L2<Scalar>>;
+  using Index = flann::KDTreeSingleIndex<flann::L2<Scalar>>;
   KdTreeSettings<Scalar> settings_;
   std::vector<Scalar> data_;       // finite points, n×3 (FLANN keeps a pointer into it)
   std::vector<std::size_t> ids_;   // tree row -> original index
   std::unique_ptr<Index> index_;
+  flann::SearchParams search_params_{flann::FLANN_CHECKS_UNLIMITED, 0.0f, true};
 };
 
 }  // namespace binpick
