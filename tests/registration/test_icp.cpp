@@ -181,6 +181,41 @@ RC_GTEST_PROP(Icp, InverseStartGivesInverseFloat, ()) { check_inverse_start_give
 RC_GTEST_PROP(Icp, SinglePlaneIsDegenerateProjectiveDouble, ()) { check_single_plane_is_degenerate<double>(Assoc::projective); }
 RC_GTEST_PROP(Icp, SinglePlaneIsDegenerateKnnFloat, ()) { check_single_plane_is_degenerate<float>(Assoc::knn); }
 
+// The normal equations' eigen-decomposition (Jacobi) against its definition: A = V diag(λ) Vᵀ with V
+// orthonormal and λ ascending, on random symmetric 6 x 6 matrices of rank 0..6 and mixed scales (the
+// rotation and translation blocks of real normal equations differ by orders of magnitude).
+RC_GTEST_PROP(Icp, SymmetricEigenDecomposes, ()) {
+  const int rank = *rc::gen::inRange(0, 7);
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  for (int r = 0; r < rank; ++r) {
+    Eigen::Matrix<double, 6, 1> x;
+    for (int i = 0; i < 6; ++i) x(i) = double(*rc::gen::inRange(-1000, 1001)) / 1000.0 * (i < 3 ? 1.0 : 1e3);
+    A += double(*rc::gen::inRange(1, 1000)) * x * x.transpose();
+  }
+  Eigen::Matrix<double, 6, 1> values;
+  Eigen::Matrix<double, 6, 6> V;
+  binpick::registration_detail::symmetric_eigen<6>(A, values, V);
+  const double norm = std::max(A.norm(), 1e-300);
+  RC_ASSERT(values.allFinite());
+  RC_ASSERT((V.transpose() * V - Eigen::Matrix<double, 6, 6>::Identity()).norm() <= 1e-12);
+  RC_ASSERT((V * values.asDiagonal() * V.transpose() - A).norm() <= 1e-12 * norm);
+  for (int i = 0; i + 1 < 6; ++i) RC_ASSERT(values(i) <= values(i + 1));
+  // Rank r: 6 - r eigenvalues vanish (relative to the largest), the others do not.
+  int zero = 0;
+  for (int i = 0; i < 6; ++i) zero += std::abs(values(i)) <= 1e-9 * norm;
+  RC_ASSERT(zero >= 6 - rank);
+}
+
+TEST(Icp, SymmetricEigenOfNonFiniteInputIsNonFinite) {
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Identity();
+  A(1, 4) = std::numeric_limits<double>::quiet_NaN();
+  Eigen::Matrix<double, 6, 1> values;
+  Eigen::Matrix<double, 6, 6> V;
+  binpick::registration_detail::symmetric_eigen<6>(A, values, V);
+  EXPECT_FALSE(values.allFinite());
+  EXPECT_FALSE(V.allFinite());
+}
+
 TEST(Icp, DeterministicForAFixedThreadCount) {
   binpick::test::AnalyticScene scene;
   scene.planes.push_back({});

@@ -28,9 +28,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
@@ -39,6 +39,7 @@
 #include "binpick/core/pose.hpp"
 #include "binpick/registration/correspondence.hpp"
 #include "binpick/registration/detail/parallel.hpp"
+#include "binpick/registration/detail/symmetric_eigen.hpp"
 #include "binpick/registration/point_cloud.hpp"
 
 namespace binpick {
@@ -231,10 +232,11 @@ struct PointAccumulator {
 
 /// Solves H δ = −g in the observable subspace (see the file comment). Returns the number of
 /// unobservable directions; δ = [ω (rotation about c), v (translation)].
-/// A template (Real = double) so the eigen solver is compiled only in the translation units that run ICP.
+/// A template, so it is compiled only in the translation units that run ICP.
 template <typename Real = double>
 int solve_observable(const Eigen::Matrix<Real, 6, 6>& H, const Eigen::Matrix<Real, 6, 1>& g, Real threshold,
                      Eigen::Matrix<Real, 6, 1>& delta) {
+  static_assert(std::is_same<Real, double>::value, "the normal equations are solved in double");
   using Mat6 = Eigen::Matrix<Real, 6, 6>;
   using Vec6 = Eigen::Matrix<Real, 6, 1>;
   // Block-isotropic scaling keeps "not moved" meaningful: a null direction of pure translation stays
@@ -245,8 +247,9 @@ int solve_observable(const Eigen::Matrix<Real, 6, 6>& H, const Eigen::Matrix<Rea
   d << s_r, s_r, s_r, s_t, s_t, s_t;
   const Mat6 Hs = d.asDiagonal() * H * d.asDiagonal();
   const Vec6 gs = d.asDiagonal() * g;
-  Eigen::SelfAdjointEigenSolver<Mat6> es(Hs);
-  const Vec6 lambda = es.eigenvalues();  // ascending
+  Vec6 lambda;  // ascending
+  Mat6 vectors;
+  symmetric_eigen<6>(Hs, lambda, vectors);
   const Real lmax = lambda(5);
   Vec6 ds = Vec6::Zero();
   int unobservable = 0;
@@ -255,7 +258,7 @@ int solve_observable(const Eigen::Matrix<Real, 6, 6>& H, const Eigen::Matrix<Rea
       ++unobservable;
       continue;
     }
-    const auto vi = es.eigenvectors().col(i);
+    const auto vi = vectors.col(i);
     ds -= vi * (vi.dot(gs) / lambda(i));
   }
   delta = d.asDiagonal() * ds;
