@@ -36,6 +36,8 @@
 
 #include <Eigen/Core>
 
+#include "binpick/registration/detail/parallel.hpp"
+
 namespace binpick {
 
 template <typename T, typename = void>
@@ -56,5 +58,17 @@ template <typename T>
 struct has_point_partner<T, std::void_t<decltype(std::ptrdiff_t(std::declval<const T&>().partner(
                                 std::declval<const Eigen::Matrix<typename T::Scalar, 3, 1>&>(), typename T::Scalar())))>>
     : std::true_type {};
+
+namespace registration_detail {
+/// associate() of a strategy that has partner(): every query on its own, `num_threads` threads.
+template <typename Association, typename Scalar>
+void associate_by_partner(const Association& association, const std::vector<Eigen::Matrix<Scalar, 3, 1>>& queries,
+                          Scalar max_distance, int num_threads, std::vector<std::ptrdiff_t>& partners) {
+  partners.resize(queries.size());
+  parallel_for(std::ptrdiff_t(queries.size()), num_threads, [&](std::ptrdiff_t i) {
+    partners[std::size_t(i)] = association.partner(queries[std::size_t(i)], max_distance);
+  });
+}
+}  // namespace registration_detail
 
 }  // namespace binpick

@@ -47,12 +47,7 @@ class KnnAssociation {
 
   void associate(const std::vector<Vector3<Scalar>>& queries, Scalar max_distance, int num_threads,
                  std::vector<std::ptrdiff_t>& partners) const {
-    partners.resize(queries.size());
-    const std::ptrdiff_t n = std::ptrdiff_t(queries.size());
-    const int threads = num_threads < 1 ? 1 : num_threads;
-    (void)threads;
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1 && n > 4096)
-    for (std::ptrdiff_t i = 0; i < n; ++i) partners[std::size_t(i)] = partner(queries[std::size_t(i)], max_distance);
+    registration_detail::associate_by_partner(*this, queries, max_distance, num_threads, partners);
   }
 
  private:

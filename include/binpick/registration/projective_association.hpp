@@ -59,10 +59,7 @@ class ProjectiveAssociation {
 
   void associate(const std::vector<Vector3<Scalar>>& queries, Scalar max_distance, int num_threads,
                  std::vector<std::ptrdiff_t>& partners) const {
-    partners.resize(queries.size());
-    registration_detail::parallel_for(std::ptrdiff_t(queries.size()), num_threads, [&](std::ptrdiff_t i) {
-      partners[std::size_t(i)] = partner(queries[std::size_t(i)], max_distance);
-    });
+    registration_detail::associate_by_partner(*this, queries, max_distance, num_threads, partners);
   }
 
   /// The partner of one query (the optional point-wise member of the concept: ICP then transforms,
