@@ -232,17 +232,14 @@ struct PointAccumulator {
 
 /// Solves H δ = −g in the observable subspace (see the file comment). Returns the number of
 /// unobservable directions; δ = [ω (rotation about c), v (translation)].
-/// A template, so it is compiled only in the translation units that run ICP.
-template <typename Real = double>
-int solve_observable(const Eigen::Matrix<Real, 6, 6>& H, const Eigen::Matrix<Real, 6, 1>& g, Real threshold,
-                     Eigen::Matrix<Real, 6, 1>& delta) {
-  static_assert(std::is_same<Real, double>::value, "the normal equations are solved in double");
-  using Mat6 = Eigen::Matrix<Real, 6, 6>;
-  using Vec6 = Eigen::Matrix<Real, 6, 1>;
+inline int solve_observable(const Eigen::Matrix<double, 6, 6>& H, const Eigen::Matrix<double, 6, 1>& g,
+                            double threshold, Eigen::Matrix<double, 6, 1>& delta) {
+  using Mat6 = Eigen::Matrix<double, 6, 6>;
+  using Vec6 = Eigen::Matrix<double, 6, 1>;
   // Block-isotropic scaling keeps "not moved" meaningful: a null direction of pure translation stays
   // orthogonal to the update in the metric of metres.
-  const Real tr_r = H.template topLeftCorner<3, 3>().trace() / 3, tr_t = H.template bottomRightCorner<3, 3>().trace() / 3;
-  const Real s_r = tr_r > 0 ? 1 / std::sqrt(tr_r) : 0, s_t = tr_t > 0 ? 1 / std::sqrt(tr_t) : 0;
+  const double tr_r = H.topLeftCorner<3, 3>().trace() / 3, tr_t = H.bottomRightCorner<3, 3>().trace() / 3;
+  const double s_r = tr_r > 0 ? 1 / std::sqrt(tr_r) : 0, s_t = tr_t > 0 ? 1 / std::sqrt(tr_t) : 0;
   Vec6 d;
   d << s_r, s_r, s_r, s_t, s_t, s_t;
   const Mat6 Hs = d.asDiagonal() * H * d.asDiagonal();
@@ -250,7 +247,7 @@ int solve_observable(const Eigen::Matrix<Real, 6, 6>& H, const Eigen::Matrix<Rea
   Vec6 lambda;  // ascending
   Mat6 vectors;
   symmetric_eigen<6>(Hs, lambda, vectors);
-  const Real lmax = lambda(5);
+  const double lmax = lambda(5);
   Vec6 ds = Vec6::Zero();
   int unobservable = 0;
   for (int i = 0; i < 6; ++i) {

@@ -3,8 +3,8 @@
 /// The FLANN seam of the registration module: a kd-tree over 3-D points (FLANN's single kd-tree,
 /// `flann::KDTreeSingleIndex` — the index `flann::Index` builds for `flann::KDTreeSingleIndexParams`,
 /// held directly because the wrapper hides its one-query search), exact by default, approximate when
-/// `eps` > 0. Only kNN
-/// association and kNN normals include this header; the rest of the library compiles without FLANN.
+/// `eps` > 0. Only kNN association and kNN normals include this header; the rest of the library
+/// compiles without FLANN.
 
 #include <cstddef>
 #include <limits>
@@ -56,7 +56,6 @@ class KdTree {
   /// Throws std::invalid_argument for leaf_max_size < 1 or a negative / non-finite eps.
   explicit KdTree(const std::vector<Vector3<Scalar>>& points, const KdTreeSettings<Scalar>& settings = {})
       : settings_(settings) {
-    search_params_.eps = float(settings.eps);
     require(settings.leaf_max_size >= 1, "leaf_max_size", "must be >= 1");
     require(std::isfinite(settings.eps) && settings.eps >= Scalar(0), "eps", "must be finite and >= 0");
     for (std::size_t i = 0; i < points.size(); ++i) {
@@ -83,7 +82,7 @@ class KdTree {
   std::ptrdiff_t nearest(const Scalar* query, Scalar bound_squared, Scalar& squared_distance) const {
     if (!index_) return -1;
     registration_detail::NearestWithin<Scalar> result(bound_squared);
-    index_->findNeighbors(result, query, search_params_);
+    index_->findNeighbors(result, query, search_params(1));
     if (result.index() >= ids_.size()) return -1;
     squared_distance = result.worstDist();
     return std::ptrdiff_t(ids_[result.index()]);
@@ -104,9 +103,7 @@ class KdTree {
     flann::Matrix<Scalar> q(const_cast<Scalar*>(queries), n, 3);  // FLANN only reads the queries
     flann::Matrix<std::size_t> mi(idx.data(), n, kk);
     flann::Matrix<Scalar> md(d2.data(), n, kk);
-    flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED, float(settings_.eps), true);
-    params.cores = num_threads < 1 ? 1 : num_threads;
-    index_->knnSearch(q, mi, md, kk, params);
+    index_->knnSearch(q, mi, md, kk, search_params(num_threads));
     for (std::size_t i = 0; i < n * kk; ++i) {
       if (idx[i] < ids_.size() && d2[i] < std::numeric_limits<Scalar>::infinity()) {
         indices[i] = std::ptrdiff_t(ids_[idx[i]]);
@@ -121,7 +118,12 @@ class KdTree {
   std::vector<Scalar> data_;       // finite points, n×3 (FLANN keeps a pointer into it)
   std::vector<std::size_t> ids_;   // tree row -> original index
   std::unique_ptr<Index> index_;
-  flann::SearchParams search_params_{flann::FLANN_CHECKS_UNLIMITED, 0.0f, true};
+
+  flann::SearchParams search_params(int num_threads) const {
+    flann::SearchParams params(flann::FLANN_CHECKS_UNLIMITED, float(settings_.eps), true);
+    params.cores = num_threads < 1 ? 1 : num_threads;
+    return params;
+  }
 };
 
 }  // namespace binpick
