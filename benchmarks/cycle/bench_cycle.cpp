@@ -1,8 +1,10 @@
 // bench_cycle: the measured part of the data processing phase of one cycle (paper Table I: 3D fusion
 // and path planning; estimation excluded) for n = 4 views at 1280x1024 and 640x512: fusion with ICP
 // registration of views 2..4 and voting, then Eq. 1 over 20 objects and Alg. 2 for the next path.
-// The four views are rendered once by the simulated sensor along a sensing arc swept at 80 % with late
-// kinematic poses (the fake robot's read lag), as the cycle captures them. Also the Table I model.
+// At 1280x1024 also with the registration strides unscaled (FusionSettings::stride_width = 0), for
+// the time and pose error the default scaling trades (pose errors against the simulation's truth).
+// The four views are rendered once by the simulated sensor along a sensing arc swept at 80 % with
+// late kinematic poses (the fake robot's read lag), as the cycle captures them. Also the Table I model.
 #include "bench.hpp"
 
 #include "binpick/active_vision.hpp"
@@ -53,9 +55,20 @@ int main(int argc, char** argv) {
       sensor.trigger();
       poses.push_back(robot.read_flange_pose().T_base_flange * ps.T_flange_camera);
     }
-    const auto frames = sensor.read_frames();
+    const auto frames = sensor.read_frames_with_truth();  // the truth only scores the registration
     std::vector<DepthImageView<float>> views;
     for (const auto& f : frames) views.push_back(f.depth.view());
+    // Pose error of views 2..4 [mm, deg], worst over the views: kinematic (as read) and as fused.
+    const auto worst_error = [&](const auto& pose_of) {
+      double mm = 0, deg = 0;
+      for (std::size_t i = 1; i < frames.size(); ++i) {
+        const Isometry3f e = frames[i].T_base_camera.inverse(Eigen::Isometry) * pose_of(i);
+        mm = std::max(mm, 1e3 * double(e.translation().norm()));
+        deg = std::max(deg, double(rotation_angle(e)) * 180.0 / M_PI);
+      }
+      return std::make_pair(mm, deg);
+    };
+    const auto kinematic_error = worst_error([&](std::size_t i) { return poses[i]; });
     // 20 recognized objects for Eq. 1.
     std::vector<Vector3<float>> objects;
     std::vector<float> conf;
@@ -92,13 +105,26 @@ int main(int argc, char** argv) {
                                                                            ps.T_base_drop.translation() + d, ps.gamma, beta, 4));
           },
           opt.warmup, opt.trials);
+      const auto fused_error = worst_error([&](std::size_t i) { return kept.views[i].T_base_view; });
       bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
-          .str("output", "kept").num("valid_fraction", double(valid) / (double(wh[0]) * wh[1]))
+          .str("output", "kept").str("strides", fs.stride_scale(wh[0]) > 1 ? "scaled" : "as_given").num("valid_fraction", double(valid) / (double(wh[0]) * wh[1]))
           .num("icp_iterations", icp_iterations).num("icp_inliers", icp_inliers)
+          .num("kinematic_error_mm", kinematic_error.first).num("kinematic_error_deg", kinematic_error.second)
+          .num("pose_error_mm", fused_error.first).num("pose_error_deg", fused_error.second)
           .num("last_registration_ms", kept.registration_ms).num("last_reprojection_ms", kept.reprojection_ms)
           .num("last_voting_ms", kept.voting_ms).stats(sf).print();
       bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
           .str("output", "new").stats(sf_new).print();
+      if (fs.stride_scale(wh[0]) > 1) {  // the price of the strides scaled to the resolution: unscaled
+        FusionSettings<float> full = fs;
+        full.stride_width = 0;
+        FusionResult<float> out;
+        const auto sfull = bench::measure([&] { fuser.fuse(views, poses, full, out); }, opt.warmup, opt.trials);
+        const auto full_error = worst_error([&](std::size_t i) { return out.views[i].T_base_view; });
+        bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
+            .str("output", "kept").str("strides", "as_given").num("pose_error_mm", full_error.first)
+            .num("pose_error_deg", full_error.second).num("last_registration_ms", out.registration_ms).stats(sfull).print();
+      }
       bench::JsonLine("cycle_planning").num("threads", threads).num("objects", double(objects.size())).stats(sp).print();
       bench::JsonLine("cycle_processing_without_estimation").num("threads", threads).num("views", 4).num("width", wh[0])
           .num("height", wh[1]).num("target_ms", 40).stats(sall).print();

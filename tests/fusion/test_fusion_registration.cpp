@@ -229,6 +229,48 @@ TEST(FusionRegistration, RedwoodPerturbedFusionImproves) {
   EXPECT_LT(on, given * 1.5f + 0.001f);
 }
 
+// A camera wider than FusionSettings::stride_width registers with both strides multiplied: the same
+// bits as asking for the multiplied strides unscaled, and other bits than the strides as given.
+TEST(FusionRegistration, StridesScaleWithTheImageWidth) {
+  FusionSettings<double> d;
+  EXPECT_EQ(d.stride_scale(640), 1);
+  EXPECT_EQ(d.stride_scale(641), 2);
+  EXPECT_EQ(d.stride_scale(1280), 2);
+  EXPECT_EQ(d.stride_scale(1920), 3);
+  d.stride_width = 0;
+  EXPECT_EQ(d.stride_scale(4096), 1);
+
+  const PinholeCamera<double> cam(300, 300, 349.5, 139.5, 700, 280);  // 700 px wide: scale 2
+  const sim::BoxScene scene = sim::boxes_scene();
+  std::vector<DepthImage<double>> images;
+  std::vector<Isometry3<double>> poses;
+  for (int i = 0; i < 3; ++i) {
+    const double a = -0.04 + 0.04 * i;
+    images.push_back(scene.render<double>(cam, arc_pose(a)));
+    poses.push_back(i == 0 ? arc_pose(a) : arc_pose(a - 0.03));  // late kinematics
+  }
+  std::vector<DepthImageView<double>> views;
+  for (const auto& v : images) views.push_back(v.view());
+  FusionSettings<double> scaled;  // defaults: strides 4 and 2, doubled
+  FusionSettings<double> doubled;
+  doubled.stride_width = 0;
+  doubled.icp.stride = 8;
+  doubled.reference_stride = 4;
+  FusionSettings<double> as_given;
+  as_given.stride_width = 0;
+  const auto a = fuse(views, poses, cam, scaled), b = fuse(views, poses, cam, doubled), c = fuse(views, poses, cam, as_given);
+  for (std::size_t i = 1; i < 3; ++i) {
+    EXPECT_EQ(a.views[i].pose, ViewPose::registered) << i;
+    EXPECT_TRUE(a.views[i].T_base_view.matrix() == b.views[i].T_base_view.matrix()) << i;
+    EXPECT_EQ(a.views[i].icp_inliers, b.views[i].icp_inliers) << i;
+    // The unscaled strides pair about four times the points.
+    EXPECT_GT(c.views[i].icp_inliers, 3 * a.views[i].icp_inliers) << i;
+  }
+  FusionSettings<double> bad;
+  bad.stride_width = -1;
+  EXPECT_THROW(fuse(views, poses, cam, bad), std::invalid_argument);
+}
+
 TEST(FusionRegistration, BadCorrectionBoundsThrow) {
   const PinholeCamera<float> cam(100, 100, 15.5f, 11.5f, 32, 24);
   DepthImage<float> d(32, 24, 0.3f);

@@ -67,7 +67,7 @@ struct FusionSettings {
   /// Register views 2..n to view 1 with point-to-plane ICP before voting (§III.B.2).
   bool register_views = true;
   /// ICP of the registration: projective association into view 1, every 4th row and column of the
-  /// source, Tukey kernel. Its num_threads is not used (see num_threads above).
+  /// source (scaled for wide images, see stride_width), Tukey kernel. Its num_threads is not used (see num_threads above).
   IcpSettings<Scalar> icp = default_icp();
   ProjectiveAssociationSettings association{};  ///< search window in view 1
   /// Estimate normals for the source points: points without one (depth edges, holes) are left out,
@@ -79,6 +79,16 @@ struct FusionSettings {
   /// a full-resolution reference only costs time. 1 = full resolution (also used for camera models
   /// other than pinhole and Brown–Conrady).
   int reference_stride = 2;
+  /// The strides above (icp.stride, reference_stride) are meant for images up to this many pixels
+  /// wide; a wider camera multiplies both by ceil(width / stride_width) (at 1280 x 1024: the source
+  /// every 8th, view 1 every 4th pixel), so registration samples a view as densely in angle, and
+  /// costs the same, at any resolution. ICP's precision comes from the number and spread of its
+  /// points, not from the pixel pitch. Measured at 1280 x 1024 (5 part types x 2 piles x 3 views on
+  /// the simulated sensing arc, kinematic poses up to 18 mm / 3.5 deg off): scaled, the views land
+  /// 0.10 mm / 0.047 deg from the truth on average (worst 0.26 mm / 0.12 deg) for 7.5 ms of
+  /// registration a fusion; unscaled, 0.13 mm / 0.021 deg (worst 0.29 mm / 0.042 deg) for 35 ms.
+  /// Either is far below the voting threshold δ. 0 = the strides as given at any resolution.
+  int stride_width = 640;
   /// Normals of view 1 (and of the sources with source_normals): tangents over 3 (sampled) pixels and
   /// a tolerant crease test, because single-shot depth on metal is noisy at the pixel scale.
   OrganizedNormalSettings<Scalar> normals = default_normals();
@@ -88,6 +98,8 @@ struct FusionSettings {
   Scalar max_correction_rotation = Scalar(0.0873);   ///< [rad]
 
   Scalar effective_delta() const { return delta > Scalar(0) ? delta : Scalar(2) * sensor_accuracy; }
+  /// The factor stride_width applies to the strides for an image `width` pixels wide (>= 1).
+  int stride_scale(int width) const { return stride_width > 0 ? std::max(1, (width + stride_width - 1) / stride_width) : 1; }
 
   static OrganizedNormalSettings<Scalar> default_normals() {
     OrganizedNormalSettings<Scalar> n;
@@ -334,14 +346,19 @@ class Fuser {
     require(std::isfinite(settings.max_correction_rotation) && settings.max_correction_rotation > Scalar(0),
             "max_correction_rotation", "must be finite and > 0");
     require(settings.reference_stride >= 1, "reference_stride", "must be >= 1");
+    require(settings.stride_width >= 0, "stride_width", "must be >= 0 (0 = strides as given)");
+    require(settings.icp.stride >= 1, "stride", "must be >= 1");
     FusionSettings<Scalar> st = settings;
     st.normals.num_threads = threads;  // never more threads than the caller asked for
+    const int scale = settings.stride_scale(camera_.width());
+    st.reference_stride *= scale;
+    st.icp.stride *= scale;
     ProjectiveAssociation<Scalar, Camera> reference = make_reference(views[0], st);
     const Isometry3<Scalar> T_ref_base = T_base_views[0].inverse(Eigen::Isometry);
     // Views are registered in parallel, each on one thread: a pose then has the same bits for any
     // thread count, and three views on two threads took less time than each view's sums split over
     // both (bench_cycle, 1280x1024). View 1's normals above use all threads.
-    IcpSettings<Scalar> icp_settings = settings.icp;
+    IcpSettings<Scalar> icp_settings = st.icp;
     icp_settings.num_threads = 1;
     IcpSettings<Scalar> icp_strided = icp_settings;
     icp_strided.stride = 1;  // the image grid is subsampled by backproject_points
@@ -359,7 +376,7 @@ class Fuser {
         const IcpResult<Scalar> r =
             settings.source_normals
                 ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, source_normals)
-                : icp(backproject_points(views[i], camera_, std::max(1, settings.icp.stride)), reference,
+                : icp(backproject_points(views[i], camera_, st.icp.stride), reference,
                       T_ref_view_prior, icp_strided);
         const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
         rep.icp_status = r.status;
