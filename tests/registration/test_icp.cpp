@@ -216,6 +216,66 @@ TEST(Icp, SymmetricEigenOfNonFiniteInputIsNonFinite) {
   EXPECT_FALSE(V.allFinite());
 }
 
+namespace {
+
+// Coarse to fine (IcpSettings::coarse_points) ends where one stage ends: the fine stage converges on
+// the full source from the coarse pose. Forced on the small test scenes by a small coarse_points.
+template <typename Scalar>
+void check_coarse_to_fine_ends_where_one_stage_ends() {
+  const AnalyticScene scene = random_scene();
+  const auto cam = test_camera<Scalar>();
+  const Eigen::Isometry3d T_true = random_pose<double>(3 * kDeg, 0.01);
+  const DepthImage<Scalar> target = scene.render(cam, Eigen::Isometry3d::Identity());
+  const DepthImage<Scalar> source = scene.render(cam, T_true);
+  RC_PRE(target.valid_count() > 4000 && source.valid_count() > 4000);
+  RC_PRE(observability(target, cam) > 1e-3);
+  const Isometry3<Scalar> init = (random_pose<double>(2 * kDeg, 0.005 / std::sqrt(3.0)) * T_true).cast<Scalar>();
+  IcpSettings<Scalar> one, staged;
+  one.coarse_points = 0;
+  staged.coarse_points = 500;  // the stride-2 source has 2000+ points: a coarse stage of every k-th
+  const IcpResult<Scalar> a = register_views(source, target, init, Assoc::knn, one);
+  const IcpResult<Scalar> b = register_views(source, target, init, Assoc::knn, staged);
+  RC_LOG() << to_string(a.status) << " " << a.iterations << " it / " << to_string(b.status) << " " << b.iterations << " it\n";
+  RC_ASSERT(b.status == IcpStatus::converged || b.status == IcpStatus::max_iterations);
+  RC_ASSERT(b.iterations >= 2);  // at least one iteration per stage
+  const auto [et, er] = pose_error<Scalar>(b.T_target_source, a.T_target_source);
+  RC_ASSERT(et < 0.05e-3);
+  RC_ASSERT(er < 0.02 * kDeg);
+  const auto [tt, tr] = pose_error<Scalar>(b.T_target_source, T_true.cast<Scalar>());
+  RC_ASSERT(tt < 1e-3);
+  RC_ASSERT(tr < 0.4 * kDeg);
+}
+
+}  // namespace
+
+RC_GTEST_PROP(Icp, CoarseToFineEndsWhereOneStageEndsFloat, ()) { check_coarse_to_fine_ends_where_one_stage_ends<float>(); }
+RC_GTEST_PROP(Icp, CoarseToFineEndsWhereOneStageEndsDouble, ()) { check_coarse_to_fine_ends_where_one_stage_ends<double>(); }
+
+// The correction bounds hold across both stages, from the caller's initial pose.
+TEST(Icp, CoarseToFineKeepsTheCorrectionBounds) {
+  binpick::test::AnalyticScene scene;
+  scene.planes.push_back({});
+  OrientedBox box;
+  box.T_scene_box.translation() = Eigen::Vector3d(0.03, 0.02, 0.29);
+  box.T_scene_box.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  scene.boxes.push_back(box);
+  const auto cam = test_camera<double>();
+  const DepthImage<double> depth = scene.render(cam, Eigen::Isometry3d::Identity());
+  Eigen::Isometry3d init = Eigen::Isometry3d::Identity();
+  init.translation() = Eigen::Vector3d(0.002, -0.001, 0.003);
+  IcpSettings<double> s;
+  s.coarse_points = 200;
+  const IcpResult<double> ok = register_views(depth, depth, init, Assoc::knn, s);
+  EXPECT_TRUE(ok.ok()) << to_string(ok.status);
+  EXPECT_LT(ok.T_target_source.translation().norm(), 0.5e-3);  // from 3.7 mm off (kNN on a 2 mm grid)
+  s.max_correction_translation = 0.001;  // the needed correction is 3.7 mm
+  const IcpResult<double> far = register_views(depth, depth, init, Assoc::knn, s);
+  EXPECT_EQ(far.status, IcpStatus::diverged);
+  EXPECT_TRUE(far.T_target_source.matrix() == init.matrix());
+  s.coarse_points = -1;
+  EXPECT_THROW(register_views(depth, depth, init, Assoc::knn, s), std::invalid_argument);
+}
+
 TEST(Icp, DeterministicForAFixedThreadCount) {
   binpick::test::AnalyticScene scene;
   scene.planes.push_back({});

@@ -14,6 +14,8 @@
 ///     g = Σ w J r.  Point-to-point: weighted Kabsch/Umeyama (SVD of the cross-covariance).
 ///  4. T ← ΔT T; stop when ΔT rotates less than `rotation_epsilon` and moves the source centroid
 ///     less than `translation_epsilon`.
+/// A large source is registered coarse to fine (IcpSettings::coarse_points): a subsample first, then
+/// all points from its pose.
 /// Degeneracy (point-to-plane): H is scaled to unit mean diagonal per block (rotation, translation);
 /// eigen-directions whose eigenvalue is below `degeneracy_threshold` × the largest are unobservable
 /// (e.g. sliding on one plane) and the update is confined to the observable subspace, so those
@@ -93,6 +95,14 @@ struct IcpSettings {
   /// threads mostly wait (measured: 0 = all cores made a single registration many times slower on a
   /// busy 2-core machine). 0 = all cores; the last bits of the result depend on the count (file comment).
   int num_threads = 1;
+  /// Coarse to fine: when the (strided) source has more than 4 x coarse_points points, ICP first runs
+  /// on every k-th of them (about coarse_points; 10 x the epsilons; at most half of max_iterations),
+  /// then on all of them from that pose, so the result is still that of the full source. What it
+  /// saves is the cost of the first iterations, which for the kd-tree association grows with the
+  /// source's distance from the target (640 x 480 pair 3 mm / 1 deg off: the first full search took
+  /// 240 of the 410 ms; coarse to fine 230 ms in all, same pose and RMSE). `iterations` and
+  /// max_iterations count both stages. 0 = one stage.
+  int coarse_points = 20000;
 };
 
 template <typename Scalar>
@@ -280,16 +290,11 @@ inline bool normals_agree(const Eigen::Matrix<Scalar, 3, 3>& R, const Scalar* ns
   const Scalar rz = R(2, 0) * ns[0] + R(2, 1) * ns[1] + R(2, 2) * ns[2];
   return rx * nt[0] + ry * nt[1] + rz * nt[2] >= cos_max;
 }
-}  // namespace registration_detail
 
-/// Registers `source` (source frame [m]; normals optional, used to reject incompatible pairs) to the
-/// target held by `association`, starting from `T_target_source_init`. Non-finite source points are
-/// skipped, and so are points without a normal when the source has normals (they could never pair). Throws std::invalid_argument for settings out of range or an invalid initial pose;
-/// everything else is reported in the result. Point-to-plane needs target normals
-/// (`association.has_target_normals()`), else throws.
+/// icp() at one scale (IcpSettings::coarse_points ignored).
 template <typename Scalar, typename Association>
-IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& association,
-                      const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings = {}) {
+IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Association& association,
+                                const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings) {
   const std::vector<Vector3<Scalar>>& source_points = source.points;
   static_assert(is_association<Association>::value, "Association must model the concept in correspondence.hpp");
   static_assert(std::is_same<typename Association::Scalar, Scalar>::value, "Association::Scalar must match");
@@ -523,6 +528,47 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
   if (result.degenerate_directions > 0) result.status = IcpStatus::degenerate;
   else result.status = converged ? IcpStatus::converged : IcpStatus::max_iterations;
   return result;
+}
+
+}  // namespace registration_detail
+
+/// Registers `source` (source frame [m]; normals optional, used to reject incompatible pairs) to the
+/// target held by `association`, starting from `T_target_source_init`. Non-finite source points are
+/// skipped, and so are points without a normal when the source has normals (they could never pair). Throws std::invalid_argument for settings out of range or an invalid initial pose;
+/// everything else is reported in the result. Point-to-plane needs target normals
+/// (`association.has_target_normals()`), else throws.
+template <typename Scalar, typename Association>
+IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& association,
+                      const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings = {}) {
+  require(settings.coarse_points >= 0, "coarse_points", "must be >= 0 (0 = one stage)");
+  require(settings.stride >= 1, "stride", "must be >= 1");
+  require(settings.max_iterations >= 1, "max_iterations", "must be >= 1");
+  const std::size_t strided = (source.points.size() + std::size_t(settings.stride) - 1) / std::size_t(settings.stride);
+  const std::size_t coarse_points = std::size_t(settings.coarse_points);
+  if (coarse_points == 0 || strided <= 4 * coarse_points || settings.max_iterations < 2)
+    return registration_detail::icp_one_scale(source, association, T_target_source_init, settings);
+  IcpSettings<Scalar> coarse = settings;
+  const std::size_t k = (strided + coarse_points - 1) / coarse_points;
+  coarse.stride = int(std::min<std::size_t>(std::size_t(settings.stride) * k, std::size_t(std::numeric_limits<int>::max())));
+  coarse.max_iterations = settings.max_iterations / 2;
+  coarse.rotation_epsilon *= Scalar(10);
+  coarse.translation_epsilon *= Scalar(10);
+  const IcpResult<Scalar> c = registration_detail::icp_one_scale(source, association, T_target_source_init, coarse);
+  // A coarse stage that failed (too few pairs, diverged) only cost time: the fine one starts over.
+  const bool moved = c.ok() || c.status == IcpStatus::max_iterations;
+  IcpSettings<Scalar> fine = settings;
+  fine.max_iterations = settings.max_iterations - c.iterations;
+  IcpResult<Scalar> r = registration_detail::icp_one_scale(source, association,
+                                                           moved ? c.T_target_source : T_target_source_init, fine);
+  r.iterations += c.iterations;
+  // The correction bounds hold for the whole run, from the caller's initial pose.
+  const Isometry3<Scalar> correction = r.T_target_source * T_target_source_init.inverse(Eigen::Isometry);
+  if (r.status == IcpStatus::diverged || correction.translation().norm() > settings.max_correction_translation ||
+      rotation_angle(correction) > settings.max_correction_rotation) {
+    r.status = IcpStatus::diverged;
+    r.T_target_source = T_target_source_init;
+  }
+  return r;
 }
 
 }  // namespace binpick
