@@ -69,23 +69,36 @@ IcpResult<Scalar> register_views(const DepthImage<Scalar>& source, const DepthIm
   return align_depth_view(source.view(), cam, knn, init, s);
 }
 
+/// A random pile seen by the test camera from the origin (target) and from up to 3° / 1 cm away
+/// (source: a second view of the robot's path), and a start off the truth by up to 2° and 5 mm.
+/// Discards (RC_PRE) pairs with few valid pixels and targets that leave the pose unobservable: a few
+/// generated piles are nearly a single surface (boxes outside the view), where ICP rightly reports
+/// `degenerate` (tested by SinglePlaneIsDegenerate).
 template <typename Scalar>
-void check_recovers_perturbation(Assoc assoc) {
+struct RandomViewPair {
+  Eigen::Isometry3d T_true;
+  DepthImage<Scalar> target, source;
+  Isometry3<Scalar> init;
+};
+template <typename Scalar>
+RandomViewPair<Scalar> random_view_pair(std::size_t min_valid) {
   const AnalyticScene scene = random_scene();
   const auto cam = test_camera<Scalar>();
-  // The source camera looks from a slightly different place (a second view of the robot's path).
-  const Eigen::Isometry3d T_true = random_pose<double>(3 * kDeg, 0.01);
-  const DepthImage<Scalar> target = scene.render(cam, Eigen::Isometry3d::Identity());
-  const DepthImage<Scalar> source = scene.render(cam, T_true);
-  RC_PRE(target.valid_count() > 1000 && source.valid_count() > 1000);
-  // A few generated piles leave the target nearly a single surface (boxes outside the view): ICP then
-  // rightly reports `degenerate`. Those are tested by SinglePlaneIsDegenerate; here the pose is observable.
-  RC_PRE(observability(target, cam) > 1e-3);
-  // Perturbation: up to 2° and 5 mm.
-  const Eigen::Isometry3d P = random_pose<double>(2 * kDeg, 0.005 / std::sqrt(3.0));
-  const Isometry3<Scalar> init = (P * T_true).cast<Scalar>();
-  const IcpResult<Scalar> r = register_views(source, target, init, assoc);
-  const auto [et, er] = pose_error<Scalar>(r.T_target_source, T_true.cast<Scalar>());
+  RandomViewPair<Scalar> p;
+  p.T_true = random_pose<double>(3 * kDeg, 0.01);
+  p.target = scene.render(cam, Eigen::Isometry3d::Identity());
+  p.source = scene.render(cam, p.T_true);
+  RC_PRE(p.target.valid_count() > min_valid && p.source.valid_count() > min_valid);
+  RC_PRE(observability(p.target, cam) > 1e-3);
+  p.init = (random_pose<double>(2 * kDeg, 0.005 / std::sqrt(3.0)) * p.T_true).template cast<Scalar>();
+  return p;
+}
+
+template <typename Scalar>
+void check_recovers_perturbation(Assoc assoc) {
+  const RandomViewPair<Scalar> p = random_view_pair<Scalar>(1000);
+  const IcpResult<Scalar> r = register_views(p.source, p.target, p.init, assoc);
+  const auto [et, er] = pose_error<Scalar>(r.T_target_source, p.T_true.template cast<Scalar>());
   RC_LOG() << to_string(r.status) << " error " << et * 1e3 << " mm " << er / kDeg << " deg, rmse " << r.rmse
            << " it " << r.iterations << " inliers " << r.inliers << " degenerate " << r.degenerate_directions << "\n";
   // Partners flipping at depth edges can keep the last update just above the epsilons: max_iterations
@@ -124,15 +137,10 @@ void check_identity_when_source_is_target(Assoc assoc) {
 
 template <typename Scalar>
 void check_inverse_start_gives_inverse() {
-  const AnalyticScene scene = random_scene();
-  const auto cam = test_camera<Scalar>();
-  const Eigen::Isometry3d T_true = random_pose<double>(3 * kDeg, 0.01);
-  const DepthImage<Scalar> a = scene.render(cam, Eigen::Isometry3d::Identity());
-  const DepthImage<Scalar> b = scene.render(cam, T_true);
-  RC_PRE(a.valid_count() > 1000 && b.valid_count() > 1000);
-  RC_PRE(observability(a, cam) > 1e-3 && observability(b, cam) > 1e-3);  // as in the recovery property
-  const Eigen::Isometry3d P = random_pose<double>(2 * kDeg, 0.005 / std::sqrt(3.0));
-  const Isometry3<Scalar> init = (P * T_true).cast<Scalar>();
+  const RandomViewPair<Scalar> p = random_view_pair<Scalar>(1000);
+  RC_PRE(observability(p.source, test_camera<Scalar>()) > 1e-3);  // registered both ways
+  const DepthImage<Scalar>&a = p.target, &b = p.source;
+  const Isometry3<Scalar>& init = p.init;
   const IcpResult<Scalar> ab = register_views(b, a, init, Assoc::projective);
   const IcpResult<Scalar> ba = register_views(a, b, Isometry3<Scalar>(init.inverse()), Assoc::projective);
   RC_ASSERT(ab.status == IcpStatus::converged || ab.status == IcpStatus::max_iterations);
@@ -222,28 +230,37 @@ namespace {
 // the full source from the coarse pose. Forced on the small test scenes by a small coarse_points.
 template <typename Scalar>
 void check_coarse_to_fine_ends_where_one_stage_ends() {
-  const AnalyticScene scene = random_scene();
-  const auto cam = test_camera<Scalar>();
-  const Eigen::Isometry3d T_true = random_pose<double>(3 * kDeg, 0.01);
-  const DepthImage<Scalar> target = scene.render(cam, Eigen::Isometry3d::Identity());
-  const DepthImage<Scalar> source = scene.render(cam, T_true);
-  RC_PRE(target.valid_count() > 4000 && source.valid_count() > 4000);
-  RC_PRE(observability(target, cam) > 1e-3);
-  const Isometry3<Scalar> init = (random_pose<double>(2 * kDeg, 0.005 / std::sqrt(3.0)) * T_true).cast<Scalar>();
+  const RandomViewPair<Scalar> p = random_view_pair<Scalar>(4000);
   IcpSettings<Scalar> one, staged;
   one.coarse_points = 0;
   staged.coarse_points = 500;  // the stride-2 source has 2000+ points: a coarse stage of every k-th
-  const IcpResult<Scalar> a = register_views(source, target, init, Assoc::knn, one);
-  const IcpResult<Scalar> b = register_views(source, target, init, Assoc::knn, staged);
+  const IcpResult<Scalar> a = register_views(p.source, p.target, p.init, Assoc::knn, one);
+  const IcpResult<Scalar> b = register_views(p.source, p.target, p.init, Assoc::knn, staged);
   RC_LOG() << to_string(a.status) << " " << a.iterations << " it / " << to_string(b.status) << " " << b.iterations << " it\n";
   RC_ASSERT(b.status == IcpStatus::converged || b.status == IcpStatus::max_iterations);
   RC_ASSERT(b.iterations >= 2);  // at least one iteration per stage
   const auto [et, er] = pose_error<Scalar>(b.T_target_source, a.T_target_source);
   RC_ASSERT(et < 0.05e-3);
   RC_ASSERT(er < 0.02 * kDeg);
-  const auto [tt, tr] = pose_error<Scalar>(b.T_target_source, T_true.cast<Scalar>());
+  const auto [tt, tr] = pose_error<Scalar>(b.T_target_source, p.T_true.template cast<Scalar>());
   RC_ASSERT(tt < 1e-3);
   RC_ASSERT(tr < 0.4 * kDeg);
+}
+
+// A floor and one tilted box seen from the scene origin (the test camera), and a start 3.7 mm off.
+DepthImage<double> floor_and_box_depth() {
+  binpick::test::AnalyticScene scene;
+  scene.planes.push_back({});
+  OrientedBox box;
+  box.T_scene_box.translation() = Eigen::Vector3d(0.03, 0.02, 0.29);
+  box.T_scene_box.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  scene.boxes.push_back(box);
+  return scene.render(test_camera<double>(), Eigen::Isometry3d::Identity());
+}
+Eigen::Isometry3d start_off_by_3_7_mm() {
+  Eigen::Isometry3d init = Eigen::Isometry3d::Identity();
+  init.translation() = Eigen::Vector3d(0.002, -0.001, 0.003);
+  return init;
 }
 
 }  // namespace
@@ -253,16 +270,8 @@ RC_GTEST_PROP(Icp, CoarseToFineEndsWhereOneStageEndsDouble, ()) { check_coarse_t
 
 // The correction bounds hold across both stages, from the caller's initial pose.
 TEST(Icp, CoarseToFineKeepsTheCorrectionBounds) {
-  binpick::test::AnalyticScene scene;
-  scene.planes.push_back({});
-  OrientedBox box;
-  box.T_scene_box.translation() = Eigen::Vector3d(0.03, 0.02, 0.29);
-  box.T_scene_box.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
-  scene.boxes.push_back(box);
-  const auto cam = test_camera<double>();
-  const DepthImage<double> depth = scene.render(cam, Eigen::Isometry3d::Identity());
-  Eigen::Isometry3d init = Eigen::Isometry3d::Identity();
-  init.translation() = Eigen::Vector3d(0.002, -0.001, 0.003);
+  const DepthImage<double> depth = floor_and_box_depth();
+  const Eigen::Isometry3d init = start_off_by_3_7_mm();
   IcpSettings<double> s;
   s.coarse_points = 200;
   const IcpResult<double> ok = register_views(depth, depth, init, Assoc::knn, s);
@@ -277,18 +286,11 @@ TEST(Icp, CoarseToFineKeepsTheCorrectionBounds) {
 }
 
 TEST(Icp, DeterministicForAFixedThreadCount) {
-  binpick::test::AnalyticScene scene;
-  scene.planes.push_back({});
-  OrientedBox box;
-  box.T_scene_box.translation() = Eigen::Vector3d(0.03, 0.02, 0.29);
-  box.T_scene_box.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
-  scene.boxes.push_back(box);
-  const auto cam = test_camera<double>();
-  const DepthImage<double> depth = scene.render(cam, Eigen::Isometry3d::Identity());
-  Eigen::Isometry3d init = Eigen::Isometry3d::Identity();
-  init.translation() = Eigen::Vector3d(0.002, -0.001, 0.003);
+  const DepthImage<double> depth = floor_and_box_depth();
+  const Eigen::Isometry3d init = start_off_by_3_7_mm();
   IcpSettings<double> s;
   s.num_threads = 2;
+  const auto cam = test_camera<double>();
   const auto target = make_projective_target(depth.view(), cam);
   const auto r1 = align_depth_view(depth.view(), cam, target, init, s);
   const auto r2 = align_depth_view(depth.view(), cam, target, init, s);
