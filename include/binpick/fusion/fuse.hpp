@@ -67,7 +67,8 @@ struct FusionSettings {
   /// Register views 2..n to view 1 with point-to-plane ICP before voting (§III.B.2).
   bool register_views = true;
   /// ICP of the registration: projective association into view 1, every 4th row and column of the
-  /// source (scaled for wide images, see stride_width), Tukey kernel. Its num_threads is not used (see num_threads above).
+  /// source (more in wide images, see stride_width), Tukey kernel. Its num_threads is not used (see
+  /// num_threads above).
   IcpSettings<Scalar> icp = default_icp();
   ProjectiveAssociationSettings association{};  ///< search window in view 1
   /// Estimate normals for the source points: points without one (depth edges, holes) are left out,

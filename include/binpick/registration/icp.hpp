@@ -99,9 +99,9 @@ struct IcpSettings {
   /// on every k-th of them (about coarse_points; 10 x the epsilons; at most half of max_iterations),
   /// then on all of them from that pose, so the result is still that of the full source. What it
   /// saves is the cost of the first iterations, which for the kd-tree association grows with the
-  /// source's distance from the target (640 x 480 pair 3 mm / 1 deg off: the first full search took
-  /// 240 of the 410 ms; coarse to fine 230 ms in all, same pose and RMSE). `iterations` and
-  /// max_iterations count both stages. 0 = one stage.
+  /// source's distance from the target (a 640 x 480 pair 3 mm / 1 deg off: the first full search
+  /// took 240 of the 410 ms of ICP; coarse to fine took 190 ms, same pose and RMSE). `iterations`
+  /// and max_iterations count both stages. 0 = one stage.
   int coarse_points = 20000;
 };
 
@@ -534,9 +534,10 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
 
 /// Registers `source` (source frame [m]; normals optional, used to reject incompatible pairs) to the
 /// target held by `association`, starting from `T_target_source_init`. Non-finite source points are
-/// skipped, and so are points without a normal when the source has normals (they could never pair). Throws std::invalid_argument for settings out of range or an invalid initial pose;
-/// everything else is reported in the result. Point-to-plane needs target normals
-/// (`association.has_target_normals()`), else throws.
+/// skipped, and so are points without a normal when the source has normals (they could never pair).
+/// Throws std::invalid_argument for settings out of range or an invalid initial pose; everything else
+/// is reported in the result. Point-to-plane needs target normals (`association.has_target_normals()`),
+/// else throws.
 template <typename Scalar, typename Association>
 IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& association,
                       const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings = {}) {
