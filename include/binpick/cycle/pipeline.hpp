@@ -163,9 +163,19 @@ struct PipelineSettings {
     T.translation() = Vector3<Scalar>(Scalar(0.15), Scalar(0.95), Scalar(0.30));
     return T;
   }
+  /// The library's fusion, with votes kept, and without source normals in the registration: on the
+  /// cell's single-shot depth of shiny metal they are noisy and their pair filter biases the pose.
+  /// Measured on simulated metal piles (640 x 512, 5 part types x 4 piles, 3 views on the sensing
+  /// arc with the fake robot's late kinematics): rms displacement of a view's points from the truth
+  /// 0.19 mm mean (worst 0.36 mm) without, 0.72 mm (worst 1.77 mm) with; the picking test (ours,
+  /// 10 runs x 10 parts, seed 1, fixed compute time) completed 96 / 37 / 57 / 85 / 96 % of the
+  /// screws / LAN connectors / mirror nuts / pencil couplers / circle nuts without, 90 / 36 / 53 /
+  /// 82 / 91 % with. (On clean geometry, such as analytic boxes, source normals keep box edges from
+  /// sliding: the library keeps them on by default.)
   static FusionSettings<Scalar> default_fusion() {
     FusionSettings<Scalar> f;
     f.compute_votes = true;
+    f.source_normals = false;
     return f;
   }
 };

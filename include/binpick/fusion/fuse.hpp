@@ -73,7 +73,9 @@ struct FusionSettings {
   ProjectiveAssociationSettings association{};  ///< search window in view 1
   /// Estimate normals for the source points: points without one (depth edges, holes) are left out,
   /// and pairs whose normals differ by more than IcpSettings::max_normal_angle are rejected. false:
-  /// every source point pairs (point-to-plane needs only view 1's normals).
+  /// every source point pairs (point-to-plane needs only view 1's normals). On by default, for clean
+  /// geometry (it keeps box edges from sliding); the picking cell turns it off for single-shot metal
+  /// depth, where it biases the pose (cycle::PipelineSettings::default_fusion, measured there).
   bool source_normals = true;
   /// View 1 is sampled every `reference_stride`-th row and column (with intrinsics scaled to match,
   /// which is exact) for its normals and the association: the source is already every 4th pixel, so
