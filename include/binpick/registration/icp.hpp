@@ -291,10 +291,12 @@ inline bool normals_agree(const Eigen::Matrix<Scalar, 3, 3>& R, const Scalar* ns
   return rx * nt[0] + ry * nt[1] + rz * nt[2] >= cos_max;
 }
 
-/// icp() at one scale (IcpSettings::coarse_points ignored).
+/// icp() at one scale (IcpSettings::coarse_points ignored), starting from `T_start`; the correction
+/// bounds, and the pose a diverged run returns, refer to the caller's `T_target_source_init`.
 template <typename Scalar, typename Association>
 IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Association& association,
-                                const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings) {
+                                const Isometry3<Scalar>& T_target_source_init, const Isometry3<Scalar>& T_start,
+                                const IcpSettings<Scalar>& settings) {
   const std::vector<Vector3<Scalar>>& source_points = source.points;
   static_assert(is_association<Association>::value, "Association must model the concept in correspondence.hpp");
   static_assert(std::is_same<typename Association::Scalar, Scalar>::value, "Association::Scalar must match");
@@ -325,7 +327,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   const std::size_t min_corr = std::size_t(std::max(6, settings.min_correspondences));
 
   IcpResult<Scalar> result;
-  result.T_target_source = T_target_source_init;
+  result.T_target_source = T_start;
 
   const bool use_normals = source.has_normals();
   // A point is used when finite and, with source normals, when it has one (a point without a normal,
@@ -372,7 +374,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
     const Vector3<Scalar>& nt = association.target_normal(j);
     return nt.squaredNorm() < Scalar(0.5) || rd::normals_agree(R_ts, src_normal(i), nt.data(), cos_normal);
   };
-  Eigen::Isometry3d T = T_target_source_init.template cast<double>();
+  Eigen::Isometry3d T = T_start.template cast<double>();
   std::vector<Vector3<Scalar>> moved(fused ? 0 : kept.size());
   std::vector<std::ptrdiff_t> partners;
   const std::ptrdiff_t n = std::ptrdiff_t(kept.size());
@@ -541,34 +543,27 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
 template <typename Scalar, typename Association>
 IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& association,
                       const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings = {}) {
+  namespace rd = registration_detail;
   require(settings.coarse_points >= 0, "coarse_points", "must be >= 0 (0 = one stage)");
   require(settings.stride >= 1, "stride", "must be >= 1");
-  require(settings.max_iterations >= 1, "max_iterations", "must be >= 1");
   const std::size_t strided = (source.points.size() + std::size_t(settings.stride) - 1) / std::size_t(settings.stride);
   const std::size_t coarse_points = std::size_t(settings.coarse_points);
   if (coarse_points == 0 || strided <= 4 * coarse_points || settings.max_iterations < 2)
-    return registration_detail::icp_one_scale(source, association, T_target_source_init, settings);
+    return rd::icp_one_scale(source, association, T_target_source_init, T_target_source_init, settings);
   IcpSettings<Scalar> coarse = settings;
   const std::size_t k = (strided + coarse_points - 1) / coarse_points;
   coarse.stride = int(std::min<std::size_t>(std::size_t(settings.stride) * k, std::size_t(std::numeric_limits<int>::max())));
   coarse.max_iterations = settings.max_iterations / 2;
   coarse.rotation_epsilon *= Scalar(10);
   coarse.translation_epsilon *= Scalar(10);
-  const IcpResult<Scalar> c = registration_detail::icp_one_scale(source, association, T_target_source_init, coarse);
+  const IcpResult<Scalar> c = rd::icp_one_scale(source, association, T_target_source_init, T_target_source_init, coarse);
   // A coarse stage that failed (too few pairs, diverged) only cost time: the fine one starts over.
   const bool moved = c.ok() || c.status == IcpStatus::max_iterations;
   IcpSettings<Scalar> fine = settings;
   fine.max_iterations = settings.max_iterations - c.iterations;
-  IcpResult<Scalar> r = registration_detail::icp_one_scale(source, association,
-                                                           moved ? c.T_target_source : T_target_source_init, fine);
+  IcpResult<Scalar> r = rd::icp_one_scale(source, association, T_target_source_init,
+                                          moved ? c.T_target_source : T_target_source_init, fine);
   r.iterations += c.iterations;
-  // The correction bounds hold for the whole run, from the caller's initial pose.
-  const Isometry3<Scalar> correction = r.T_target_source * T_target_source_init.inverse(Eigen::Isometry);
-  if (r.status == IcpStatus::diverged || correction.translation().norm() > settings.max_correction_translation ||
-      rotation_angle(correction) > settings.max_correction_rotation) {
-    r.status = IcpStatus::diverged;
-    r.T_target_source = T_target_source_init;
-  }
   return r;
 }
 
