@@ -20,8 +20,10 @@
 ///  3. fit: for each candidate and model, the model's principal axes are aligned to the segment's in
 ///     every distinct way (24 signed axis permutations, fewer after removing the part's symmetries),
 ///     each start refined by point-to-plane ICP of a subset of the segment on the model's surface
-///     samples (registration/icp.hpp with a voxel nearest-sample association); the best starts are
-///     refined with all depth points around the part and must explain most of their segment;
+///     samples (registration/icp.hpp with a voxel nearest-sample association); the best starts
+///     (confidence × share of the segment's cells the fit supports: a part turned so that a narrower
+///     face lies inside the measured one is as well supported, but covers less) are refined with all
+///     depth points around the part and must explain most of their segment; the best so ranked wins;
 ///  4. score: the fitted model's sampled surface is z-buffered into the grid; a visible cell is
 ///     supported when the measured depth lies within δ, empty when the sensor sees through it (the
 ///     measured depth lies beyond the model by more than δ): confidence = 100 · (supported − empty) /
@@ -517,6 +519,7 @@ class ReferenceEstimator {
   detail::Hypothesis<Scalar> fit_candidate(const detail::DepthGrid<Scalar>& g, const Camera& cam,
                                            const std::vector<std::uint32_t>& cells, int& starts) const {
     detail::Hypothesis<Scalar> best;
+    Scalar best_rank = 0;
     std::vector<Vec3> seg;
     seg.reserve(cells.size());
     for (const auto c : cells) seg.push_back(g.points[c]);
@@ -527,6 +530,8 @@ class ReferenceEstimator {
       E.col(2) = -E.col(2);
       E.col(1) = -E.col(1);
     }
+    std::vector<std::uint32_t> sorted_cells(cells);
+    std::sort(sorted_cells.begin(), sorted_cells.end());
     PointCloud<Scalar> coarse_src;
     const std::size_t step = std::max<std::size_t>(1, (seg.size() + std::size_t(s_.max_coarse_source_points) - 1) /
                                                          std::size_t(s_.max_coarse_source_points));
@@ -534,7 +539,7 @@ class ReferenceEstimator {
 
     for (std::size_t mi = 0; mi < models_.size(); ++mi) {
       const auto& pm = models_[mi];
-      std::vector<Scalar> fitted_confidence;
+      std::vector<Scalar> fitted_rank;  // confidence × explained share per start
       std::vector<Isometry3<Scalar>> fitted;  // T_camera_object per start (sorted through indices: Eigen alignment)
       for (const Mat3& R : start_rotations(E, pm)) {
         ++starts;
@@ -559,31 +564,54 @@ class ReferenceEstimator {
         detail::Hypothesis<Scalar> h2;
         h2.model = int(mi);
         h2.T_camera_object = registration_detail::orthonormalized(Isometry3<Scalar>(r.T_target_source.inverse(Eigen::Isometry)));
-        score(g, cam, pm, h2, false);
-        fitted_confidence.push_back(h2.confidence);
+        score(g, cam, pm, h2, true);
+        fitted_rank.push_back(h2.confidence * coverage(h2, sorted_cells));
         fitted.push_back(h2.T_camera_object);
       }
       std::vector<std::size_t> order(fitted.size());
       std::iota(order.begin(), order.end(), 0);
       std::stable_sort(order.begin(), order.end(),
-                       [&](std::size_t a, std::size_t b) { return fitted_confidence[a] > fitted_confidence[b]; });
+                       [&](std::size_t a, std::size_t b) { return fitted_rank[a] > fitted_rank[b]; });
       for (std::size_t k = 0; k < order.size() && k < std::size_t(s_.refined_starts); ++k) {
         detail::Hypothesis<Scalar> h2;
         h2.model = int(mi);
         h2.T_camera_object = refine(g, cam, pm, fitted[order[k]]);
         // The part must explain its own segment (a part-sized piece of a bin rim does not).
-        PointCloud<Scalar> in_model;
-        const Isometry3<Scalar> T_oc = h2.T_camera_object.inverse(Eigen::Isometry);
-        for (const Vec3& p : seg) in_model.points.push_back(T_oc * p);
-        std::vector<std::ptrdiff_t> partners;
-        pm.association->associate(in_model.points, s_.explain_distance, 1, partners);
-        const std::size_t explained = std::size_t(std::count_if(partners.begin(), partners.end(), [](std::ptrdiff_t q) { return q >= 0; }));
-        if (Scalar(explained) < s_.min_segment_explained * Scalar(seg.size())) continue;
+        if (explained_share(pm, h2.T_camera_object, seg) < s_.min_segment_explained) continue;
         score(g, cam, pm, h2, true);
-        if (h2.confidence > best.confidence || best.model < 0) best = std::move(h2);
+        const Scalar rank = h2.confidence * coverage(h2, sorted_cells);
+        if (rank > best_rank || best.model < 0) {
+          best_rank = rank;
+          best = std::move(h2);
+        }
       }
     }
     return best;
+  }
+
+  /// Share of the segment's cells (`sorted_cells`) that the scored hypothesis supports. It ranks a
+  /// candidate's fits together with the confidence: a part turned so that a narrower face lies inside
+  /// the measured one is as well supported (the confidence looks only where the model is), but leaves
+  /// a strip of its segment uncovered.
+  static Scalar coverage(const detail::Hypothesis<Scalar>& h, const std::vector<std::uint32_t>& sorted_cells) {
+    if (sorted_cells.empty()) return 0;
+    std::size_t n = 0;
+    for (const auto c : h.supported_cells) n += std::binary_search(sorted_cells.begin(), sorted_cells.end(), c);
+    return Scalar(n) / Scalar(sorted_cells.size());
+  }
+
+  /// Share of `points` (camera frame) within explain_distance of the model at T_camera_object.
+  Scalar explained_share(const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_camera_object,
+                         const std::vector<Vec3>& points) const {
+    if (points.empty()) return 0;
+    const Isometry3<Scalar> T_oc = T_camera_object.inverse(Eigen::Isometry);
+    std::vector<Vec3> in_model;
+    in_model.reserve(points.size());
+    for (const Vec3& p : points) in_model.push_back(T_oc * p);
+    std::vector<std::ptrdiff_t> partners;
+    pm.association->associate(in_model, s_.explain_distance, 1, partners);
+    const auto n = std::count_if(partners.begin(), partners.end(), [](std::ptrdiff_t q) { return q >= 0; });
+    return Scalar(n) / Scalar(points.size());
   }
 
   /// Starts: the model's principal axes onto the segment's in every signed permutation (proper
