@@ -539,7 +539,7 @@ class ReferenceEstimator {
 
     for (std::size_t mi = 0; mi < models_.size(); ++mi) {
       const auto& pm = models_[mi];
-      std::vector<Scalar> fitted_rank;  // confidence × explained share per start
+      std::vector<Scalar> fitted_rank;  // confidence × coverage per start
       std::vector<Isometry3<Scalar>> fitted;  // T_camera_object per start (sorted through indices: Eigen alignment)
       for (const Mat3& R : start_rotations(E, pm)) {
         ++starts;
