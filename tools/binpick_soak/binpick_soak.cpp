@@ -14,7 +14,7 @@
 // stayed flat. Both are reported; resident memory is checked.
 //
 //   binpick_soak --cycles 2000 --warmup 100 --fault-rate 0.15   the documented soak (~25 min CPU)
-//   binpick_soak --cycles 200 --warmup 100 --fault-rate 0.15    the CI run (.ci/run)
+//   binpick_soak --cycles 150 --warmup 75 --fault-rate 0.15     the CI run (.ci/run)
 // Both at 640x512: at 320x256 the estimator rarely finds the lone screw, the bin is seldom emptied and
 // the refill path goes untested. --mmap-threshold B makes glibc map blocks of B bytes or more and
 // return them on free (off by default: the run measures the allocator as a cell would use it).
