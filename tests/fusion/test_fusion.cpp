@@ -51,12 +51,16 @@ bool smooth(const DepthImage<Scalar>& truth, int u, int v) {
 }
 
 // Alg. 1 written naively: per pixel a growable candidate list, each depth compared with every
-// candidate (nearest one within delta wins), depths taken in the given order.
+// candidate (nearest one within delta wins), depths taken in the given order. The most votes win;
+// ties go to a candidate that took a depth equal to `reference` (the reference view's), else to the
+// nearest.
 template <typename Scalar>
-void naive_vote(const std::vector<Scalar>& depths, Scalar delta, int min_votes, Scalar& out, int& out_votes) {
+void naive_vote(const std::vector<Scalar>& depths, Scalar reference, Scalar delta, int min_votes, Scalar& out,
+                int& out_votes) {
   struct Candidate {
     Scalar mean;
     int votes;
+    bool has_reference;
   };
   std::vector<Candidate> c;
   for (Scalar d : depths) {
@@ -67,16 +71,19 @@ void naive_vote(const std::vector<Scalar>& depths, Scalar delta, int min_votes, 
     if (best >= 0) {
       c[best].votes++;
       c[best].mean += (d - c[best].mean) / Scalar(c[best].votes);
+      c[best].has_reference = c[best].has_reference || d == reference;
     } else {
-      c.push_back({d, 1});
+      c.push_back({d, 1, d == reference});
     }
   }
-  out = 0;
-  out_votes = 0;
-  Scalar best_mean = 0;
+  const Candidate* win = nullptr;
   for (const auto& k : c)
-    if (k.votes > out_votes || (k.votes == out_votes && k.mean < best_mean)) out_votes = k.votes, best_mean = k.mean;
-  out = out_votes >= min_votes ? best_mean : Scalar(0);
+    if (!win || k.votes > win->votes ||
+        (k.votes == win->votes && (k.has_reference > win->has_reference ||
+                                   (k.has_reference == win->has_reference && k.mean < win->mean))))
+      win = &k;
+  out_votes = win ? win->votes : 0;
+  out = win && out_votes >= min_votes ? win->mean : Scalar(0);
 }
 
 template <typename Scalar>
@@ -264,6 +271,7 @@ RC_GTEST_PROP(Voting, MatchesNaiveReference, ()) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const double delta = uniform(0.0005, 0.005);
   const int min_votes = *rc::gen::inRange(1, 4);
+  const bool reference_first = *rc::gen::arbitrary<bool>();
   std::vector<std::vector<double>> planes(std::size_t(n), std::vector<double>(std::size_t(w * h)));
   for (int i = 0; i < w * h; ++i) {
     const double base = 0.2 + 0.3 * unit(rng);
@@ -283,7 +291,7 @@ RC_GTEST_PROP(Voting, MatchesNaiveReference, ()) {
   for (const auto& p : planes) ptrs.push_back(p.data());
   std::vector<double> out(std::size_t(w * h));
   VoteMap votes;
-  vote<double>(ptrs, w, h, {delta, min_votes}, out.data(), &votes);
+  vote<double>(ptrs, w, h, {delta, min_votes, reference_first}, out.data(), &votes);
   for (int i = 0; i < w * h; ++i) {
     std::vector<double> d;
     for (int k = 0; k < n; ++k) d.push_back(planes[std::size_t(k)][std::size_t(i)]);
@@ -292,7 +300,8 @@ RC_GTEST_PROP(Voting, MatchesNaiveReference, ()) {
     std::sort(d.begin(), d.end());
     double ref;
     int ref_votes;
-    naive_vote(d, delta, min_votes, ref, ref_votes);
+    const double reference = reference_first ? planes[0][std::size_t(i)] : std::numeric_limits<double>::infinity();
+    naive_vote(d, reference, delta, min_votes, ref, ref_votes);
     RC_ASSERT(std::abs(out[std::size_t(i)] - ref) <= 1e-12);
     RC_ASSERT(int(votes.votes[std::size_t(i)]) == ref_votes);
     RC_ASSERT(std::isfinite(out[std::size_t(i)]));
@@ -315,9 +324,43 @@ RC_GTEST_PROP(Voting, SeparatedClustersAgreeWithViewOrder, ()) {
   vote<double>(ptrs, 1, 1, {delta, 1}, &out, &votes);
   double ref;
   int ref_votes;
-  naive_vote(d, delta, 1, ref, ref_votes);
+  naive_vote(d, d[0], delta, 1, ref, ref_votes);
   RC_ASSERT(std::abs(out - ref) <= 1e-9);
   RC_ASSERT(int(votes.votes[0]) == ref_votes);
+}
+
+// Ties of votes go to the reference view's candidate (planes[0]), else to the nearest; more votes
+// still win. Both kernels: the register one (4 views) and the block one (7 views).
+TEST(Voting, TiesGoToTheReferenceViewsCandidate) {
+  const float delta = 0.002f, none = 0.f;
+  struct Case {
+    std::vector<float> depths;  // [0] = the reference view
+    float expected;
+    int votes;
+  };
+  const std::vector<Case> cases = {
+      {{0.305f, 0.300f, 0.310f, 0.315f}, 0.305f, 1},             // all disagree: the reference's own depth
+      {{0.3105f, 0.3000f, 0.3005f, 0.3100f}, 0.31025f, 2},       // 2 : 2, the reference in the farther pair
+      {{none, 0.3000f, 0.3005f, 0.3100f}, 0.30025f, 2},          // no reference depth: more votes win
+      {{0.310f, 0.300f, 0.3005f, 0.3001f}, 0.3002f, 3},          // more votes beat the reference
+      {{none, 0.305f, 0.300f, 0.310f}, 0.300f, 1},               // no reference, all disagree: the nearest
+  };
+  for (const Case& c : cases)
+    for (const int n : {4, 7}) {
+      std::vector<float> d = c.depths;
+      while (int(d.size()) < n) d.push_back(none);  // views without a depth here
+      std::vector<const float*> ptrs;
+      for (const float& x : d) ptrs.push_back(&x);
+      float out = -1;
+      VoteMap votes;
+      vote<float>(ptrs, 1, 1, {delta, 1}, &out, &votes);
+      EXPECT_NEAR(out, c.expected, 1e-6f) << "case " << (&c - cases.data()) << ", " << n << " views";
+      EXPECT_EQ(int(votes.votes[0]), c.votes) << "case " << (&c - cases.data()) << ", " << n << " views";
+      // Without a reference view (a virtual target camera), ties go to the nearest.
+      vote<float>(ptrs, 1, 1, {delta, 1, false}, &out, &votes);
+      EXPECT_NEAR(out, &c == &cases[1] ? 0.30025f : &c == &cases[0] ? 0.300f : c.expected, 1e-6f)
+          << "case " << (&c - cases.data()) << ", " << n << " views, no reference";
+    }
 }
 
 TEST(Fusion, BadInputThrowsNamingTheArgument) {

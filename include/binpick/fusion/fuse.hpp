@@ -315,8 +315,8 @@ class Fuser {
 #pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
     for (long v = 0; v < nrows; ++v) {
       const std::size_t b = std::size_t(v) * std::size_t(w);
-      detail::vote_pixels(ptrs.data(), int(nplanes), b, b + std::size_t(w), delta, settings.min_votes, result.depth.data(),
-                         vote_ptr);
+      detail::vote_pixels(ptrs.data(), int(nplanes), b, b + std::size_t(w), delta, settings.min_votes,
+                          first_reprojected > 0, result.depth.data(), vote_ptr);
     }
 
     result.valid_pixels = result.depth.valid_count();

@@ -3,7 +3,12 @@
 /// Candidate voting (paper Alg. 1, lines 2–10). Each target pixel receives one depth per view (after
 /// reprojection and z-test). An incoming depth within δ of a candidate is averaged into it and votes
 /// for it (lines 4–6); otherwise it becomes a new candidate (line 8). The output is the candidate with
-/// the most votes (line 10; ties: the nearest), or no measurement when it has fewer than `min_votes`.
+/// the most votes (line 10), or no measurement when it has fewer than `min_votes`. Ties go to the candidate
+/// holding the reference view's own depth (the first plane: view 1, whose pose is exact and whose depth
+/// needs no reprojection), else to the nearest. With the nearest alone, a pixel where every view
+/// disagrees took the smallest of n noisy depths, a bias toward the camera: in the simulated cell
+/// (4 views of brass tubes, SENSOR_MODEL.md) 36 % of the part pixels lay more than 1 mm nearer than
+/// the truth (median -0.46 mm), 31 % with this rule (median -0.29 mm).
 ///
 /// Order: the algorithm as written depends on the order the depths arrive in. binpick feeds each
 /// pixel's depths in ascending order, which makes the result independent of the order of the views and
@@ -28,6 +33,9 @@ template <typename Scalar>
 struct VotingSettings {
   Scalar delta = Scalar(0.002);  ///< [m] δ of Alg. 1 (line 4); the fusion sets it to 2 × sensor accuracy
   int min_votes = 1;             ///< fewer votes → no measurement; 1 lets a single view pass unchanged
+  /// planes[0] is the reference view's own depth, and ties go to it (file comment); false: every plane
+  /// is a reprojection (a virtual target camera), ties go to the nearest.
+  bool reference_first = true;
 };
 
 /// Per-pixel vote count of the fused result (a confidence map), row-major.
@@ -43,6 +51,53 @@ constexpr int kMaxFusionViews = 64;
 
 namespace detail {
 
+/// Alg. 1 over one pack of pixels' depths in ascending order (invalid = +inf, last), with selects
+/// instead of branches: a conditional division is control flow to the auto-vectorizer. `ref` is the
+/// reference view's depth of each pixel (+inf when it has none); the constructor takes the smallest
+/// depth, add() each next one, and winner() gives the mean and votes of the chosen candidate.
+template <typename Scalar>
+struct SortedVote {
+  using P = Pack<Scalar>;
+  using V = typename P::type;
+  V delta, ref;
+  V m, votes, has_ref;                     // the open candidate (always the farthest so far)
+  V best_mean, best_votes, best_has_ref;   // the best closed one
+
+  SortedVote(const V& delta_, const V& ref_, const V& d0) : delta(delta_), ref(ref_), m(d0) {
+    const V vinf = P::splat(std::numeric_limits<Scalar>::infinity()), vone = P::splat(Scalar(1)), vzero = P::splat(Scalar(0));
+    votes = P::select(d0 < vinf, vone, vzero);
+    has_ref = P::select((d0 < vinf) & (d0 == ref), vone, vzero);
+    best_mean = best_votes = best_has_ref = vzero;
+  }
+  /// Does the candidate (v, h) beat the best closed one? More votes; on a tie, the reference's.
+  auto beats(const V& v, const V& h) const {
+    return (v > best_votes) | ((v == best_votes) & (h > best_has_ref));
+  }
+  void add(const V& d) {
+    const V vinf = P::splat(std::numeric_limits<Scalar>::infinity()), vone = P::splat(Scalar(1)), vzero = P::splat(Scalar(0));
+    const V diff = d - m;
+    const V adiff = P::select(diff < vzero, -diff, diff);
+    const auto valid = d < vinf;
+    const auto match = valid & (adiff < delta);  // lines 4-6: average into it, vote for it
+    const auto close = valid & ~match;           // line 8: a new candidate
+    const auto better = close & beats(votes, has_ref);  // full ties keep the nearer, earlier one
+    best_votes = P::select(better, votes, best_votes);
+    best_mean = P::select(better, m, best_mean);
+    best_has_ref = P::select(better, has_ref, best_has_ref);
+    const V nv = votes + vone;
+    const V is_ref = P::select(valid & (d == ref), vone, vzero);
+    m = P::select(match, m + diff / nv, P::select(close, d, m));
+    votes = P::select(match, nv, P::select(close, vone, votes));
+    has_ref = P::select(match, P::select(is_ref > has_ref, is_ref, has_ref), P::select(close, is_ref, has_ref));
+  }
+  /// Line 10: the winning candidate's mean and votes.
+  void winner(V& mean, V& win_votes) const {
+    const auto better = beats(votes, has_ref);
+    mean = P::select(better, m, best_mean);
+    win_votes = P::select(better, votes, best_votes);
+  }
+};
+
 /// Votes the pixels [begin, end) of `n` planes (+inf or 0 or non-finite = no depth from that view) into
 /// `out` (0 = no measurement) and, when non-null, `votes_out`.
 ///
@@ -51,11 +106,11 @@ namespace detail {
 /// Alg. 1 runs over the sorted depths with selects instead of branches.
 template <typename Scalar>
 void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size_t end, Scalar delta, int min_votes,
-                Scalar* out, std::uint8_t* votes_out) {
+                bool reference_first, Scalar* out, std::uint8_t* votes_out) {
   constexpr std::size_t kBlock = 64;
   const Scalar inf = std::numeric_limits<Scalar>::infinity();
   alignas(64) Scalar s[kMaxFusionViews][kBlock];
-  alignas(64) Scalar mean[kBlock], votes_all[kBlock];
+  alignas(64) Scalar mean[kBlock], votes_all[kBlock], ref[kBlock];
   const Scalar min_v = Scalar(min_votes);
   for (std::size_t b = begin; b < end; b += kBlock) {
     const std::size_t m = std::min(kBlock, end - b);
@@ -68,6 +123,8 @@ void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size
       }
       for (std::size_t j = m; j < kBlock; ++j) sk[j] = inf;
     }
+    if (reference_first) std::copy(s[0], s[0] + kBlock, ref);  // the reference view's depths, before the sort
+    else std::fill(ref, ref + kBlock, inf);                     // no reference: +inf matches no depth
     // Sort each pixel's depths ascending (n passes of compare-exchange on neighbouring planes).
     for (int pass = 0; pass < n; ++pass)
       for (int k = pass & 1; k + 1 < n; k += 2) {
@@ -80,33 +137,16 @@ void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size
         }
       }
     // Alg. 1 on the sorted depths: the last candidate is always the nearest one (see file comment).
-    // Written with SIMD packs and selects: a conditional division is control flow to the
-    // auto-vectorizer.
     using P = Pack<Scalar>;
     using V = typename P::type;
-    const V vinf = P::splat(inf), vdelta = P::splat(delta), vone = P::splat(Scalar(1)), vzero = P::splat(Scalar(0));
+    const V vdelta = P::splat(delta);
     for (std::size_t j = 0; j < kBlock; j += std::size_t(P::size)) {
-      V m = P::load(&s[0][j]);
-      V votes = P::select(m < vinf, vone, vzero);
-      V best_mean = vzero, best_votes = vzero;
-      for (int k = 1; k < n; ++k) {
-        const V d = P::load(&s[k][j]);
-        const V diff = d - m;
-        const V adiff = P::select(diff < vzero, -diff, diff);
-        const auto valid = d < vinf;
-        const auto match = valid & (adiff < vdelta);  // lines 4-6: average into it, vote for it
-        const auto close = valid & ~match;            // line 8: a new candidate
-        const auto better = close & (votes > best_votes);  // ties keep the nearer, earlier one
-        best_votes = P::select(better, votes, best_votes);
-        best_mean = P::select(better, m, best_mean);
-        const V nv = votes + vone;
-        const V averaged = m + diff / nv;
-        m = P::select(match, averaged, P::select(close, d, m));
-        votes = P::select(match, nv, P::select(close, vone, votes));
-      }
-      const auto better = votes > best_votes;  // line 10: the most votes wins
-      P::store(&mean[j], P::select(better, m, best_mean));
-      P::store(&votes_all[j], P::select(better, votes, best_votes));
+      SortedVote<Scalar> sv(vdelta, P::load(&ref[j]), P::load(&s[0][j]));
+      for (int k = 1; k < n; ++k) sv.add(P::load(&s[k][j]));
+      V mj, vj;
+      sv.winner(mj, vj);
+      P::store(&mean[j], mj);
+      P::store(&votes_all[j], vj);
     }
     for (std::size_t j = 0; j < m; ++j) out[b + j] = votes_all[j] >= min_v ? mean[j] : Scalar(0);
     if (votes_out)
@@ -119,7 +159,7 @@ void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size
 /// registers through the sort network and Alg. 1 (no block copies); the tail goes to vote_range.
 template <typename Scalar, int N>
 void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_t end, Scalar delta, int min_votes,
-                      Scalar* out, std::uint8_t* votes_out) {
+                      bool reference_first, Scalar* out, std::uint8_t* votes_out) {
   using P = Pack<Scalar>;
   using V = typename P::type;
   const Scalar inf = std::numeric_limits<Scalar>::infinity();
@@ -150,6 +190,7 @@ void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_
         for (int l = 0; l < P::size; ++l) votes_out[j + std::size_t(l)] = std::uint8_t(count[l]);
       continue;
     }
+    const V ref = reference_first ? d[0] : vinf;  // the reference view's depths, before the sort
     for (int pass = 0; pass < N; ++pass)
       for (int k = pass & 1; k + 1 < N; k += 2) {
         const V lo = P::select(d[k] < d[k + 1], d[k], d[k + 1]);
@@ -157,51 +198,37 @@ void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_
         d[k] = lo;
         d[k + 1] = hi;
       }
-    V m = d[0];
-    V votes = P::select(m < vinf, vone, vzero);
-    V best_mean = vzero, best_votes = vzero;
-    for (int k = 1; k < N; ++k) {
-      const V diff = d[k] - m;
-      const V adiff = P::select(diff < vzero, -diff, diff);
-      const auto valid = d[k] < vinf;
-      const auto match = valid & (adiff < vdelta);
-      const auto close = valid & ~match;
-      const auto better = close & (votes > best_votes);
-      best_votes = P::select(better, votes, best_votes);
-      best_mean = P::select(better, m, best_mean);
-      const V nv = votes + vone;
-      const V averaged = m + diff / nv;
-      m = P::select(match, averaged, P::select(close, d[k], m));
-      votes = P::select(match, nv, P::select(close, vone, votes));
-    }
-    const auto better = votes > best_votes;
-    const V win_votes = P::select(better, votes, best_votes);
-    P::store(out + j, P::select(win_votes >= vmin, P::select(better, m, best_mean), vzero));
+    SortedVote<Scalar> sv(vdelta, ref, d[0]);
+    for (int k = 1; k < N; ++k) sv.add(d[k]);
+    V win_mean, win_votes;
+    sv.winner(win_mean, win_votes);
+    P::store(out + j, P::select(win_votes >= vmin, win_mean, vzero));
     if (votes_out)
       for (int l = 0; l < P::size; ++l) votes_out[j + std::size_t(l)] = std::uint8_t(win_votes[l]);
   }
-  if (j < end) vote_range(planes, N, j, end, delta, min_votes, out, votes_out);
+  if (j < end) vote_range(planes, N, j, end, delta, min_votes, reference_first, out, votes_out);
 }
 
 /// Dispatches to the register-resident kernel for 2..8 views, the block kernel otherwise.
 template <typename Scalar>
 void vote_pixels(const Scalar* const* planes, int n, std::size_t begin, std::size_t end, Scalar delta, int min_votes,
-                 Scalar* out, std::uint8_t* votes_out) {
+                 bool reference_first, Scalar* out, std::uint8_t* votes_out) {
   switch (n) {
-    case 2: return vote_range_fixed<Scalar, 2>(planes, begin, end, delta, min_votes, out, votes_out);
-    case 3: return vote_range_fixed<Scalar, 3>(planes, begin, end, delta, min_votes, out, votes_out);
-    case 4: return vote_range_fixed<Scalar, 4>(planes, begin, end, delta, min_votes, out, votes_out);
-    case 5: return vote_range_fixed<Scalar, 5>(planes, begin, end, delta, min_votes, out, votes_out);
-    case 6: return vote_range_fixed<Scalar, 6>(planes, begin, end, delta, min_votes, out, votes_out);
-    case 8: return vote_range_fixed<Scalar, 8>(planes, begin, end, delta, min_votes, out, votes_out);
-    default: return vote_range(planes, n, begin, end, delta, min_votes, out, votes_out);
+    case 2: return vote_range_fixed<Scalar, 2>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+    case 3: return vote_range_fixed<Scalar, 3>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+    case 4: return vote_range_fixed<Scalar, 4>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+    case 5: return vote_range_fixed<Scalar, 5>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+    case 6: return vote_range_fixed<Scalar, 6>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+    case 8: return vote_range_fixed<Scalar, 8>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+    default: return vote_range(planes, n, begin, end, delta, min_votes, reference_first, out, votes_out);
   }
 }
 
 }  // namespace detail
 
 /// Votes `planes` (each `width * height` depths [m] of the target view; 0, negative, +inf or NaN = no
-/// depth) into one depth image (Alg. 1, lines 2–10). `votes` is filled only when non-null.
+/// depth) into one depth image (Alg. 1, lines 2–10); planes[0] is the reference view's own depth (ties
+/// go to it, see the file comment). `votes` is filled only when non-null.
 /// Throws std::invalid_argument for no planes, more than kMaxFusionViews, δ ≤ 0 or min_votes < 1.
 template <typename Scalar>
 void vote(const std::vector<const Scalar*>& planes, int width, int height, const VotingSettings<Scalar>& settings,
@@ -220,7 +247,7 @@ void vote(const std::vector<const Scalar*>& planes, int width, int height, const
     v = votes->votes.data();
   }
   detail::vote_pixels(planes.data(), int(planes.size()), 0, std::size_t(width) * std::size_t(height), settings.delta,
-                      settings.min_votes, out, v);
+                      settings.min_votes, settings.reference_first, out, v);
 }
 
 }  // namespace binpick
