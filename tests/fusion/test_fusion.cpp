@@ -337,13 +337,14 @@ TEST(Voting, TiesGoToTheReferenceViewsCandidate) {
     std::vector<float> depths;  // [0] = the reference view
     float expected;
     int votes;
+    float expected_without_reference;  // reference_first = false: ties go to the nearest
   };
   const std::vector<Case> cases = {
-      {{0.305f, 0.300f, 0.310f, 0.315f}, 0.305f, 1},             // all disagree: the reference's own depth
-      {{0.3105f, 0.3000f, 0.3005f, 0.3100f}, 0.31025f, 2},       // 2 : 2, the reference in the farther pair
-      {{none, 0.3000f, 0.3005f, 0.3100f}, 0.30025f, 2},          // no reference depth: more votes win
-      {{0.310f, 0.300f, 0.3005f, 0.3001f}, 0.3002f, 3},          // more votes beat the reference
-      {{none, 0.305f, 0.300f, 0.310f}, 0.300f, 1},               // no reference, all disagree: the nearest
+      {{0.305f, 0.300f, 0.310f, 0.315f}, 0.305f, 1, 0.300f},        // all disagree: the reference's own depth
+      {{0.3105f, 0.3000f, 0.3005f, 0.3100f}, 0.31025f, 2, 0.30025f},  // 2 : 2, the reference in the farther pair
+      {{none, 0.3000f, 0.3005f, 0.3100f}, 0.30025f, 2, 0.30025f},   // no reference depth: more votes win
+      {{0.310f, 0.300f, 0.3005f, 0.3001f}, 0.3002f, 3, 0.3002f},    // more votes beat the reference
+      {{none, 0.305f, 0.300f, 0.310f}, 0.300f, 1, 0.300f},          // no reference, all disagree: the nearest
   };
   for (const Case& c : cases)
     for (const int n : {4, 7}) {
@@ -358,7 +359,7 @@ TEST(Voting, TiesGoToTheReferenceViewsCandidate) {
       EXPECT_EQ(int(votes.votes[0]), c.votes) << "case " << (&c - cases.data()) << ", " << n << " views";
       // Without a reference view (a virtual target camera), ties go to the nearest.
       vote<float>(ptrs, 1, 1, {delta, 1, false}, &out, &votes);
-      EXPECT_NEAR(out, &c == &cases[1] ? 0.30025f : &c == &cases[0] ? 0.300f : c.expected, 1e-6f)
+      EXPECT_NEAR(out, c.expected_without_reference, 1e-6f)
           << "case " << (&c - cases.data()) << ", " << n << " views, no reference";
     }
 }

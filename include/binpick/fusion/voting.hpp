@@ -59,22 +59,20 @@ template <typename Scalar>
 struct SortedVote {
   using P = Pack<Scalar>;
   using V = typename P::type;
+  const V vinf = P::splat(std::numeric_limits<Scalar>::infinity()), vone = P::splat(Scalar(1)),
+          vzero = P::splat(Scalar(0));
   V delta, ref;
   V m, votes, has_ref;                     // the open candidate (always the farthest so far)
-  V best_mean, best_votes, best_has_ref;   // the best closed one
+  V best_mean = vzero, best_votes = vzero, best_has_ref = vzero;  // the best closed one
 
-  SortedVote(const V& delta_, const V& ref_, const V& d0) : delta(delta_), ref(ref_), m(d0) {
-    const V vinf = P::splat(std::numeric_limits<Scalar>::infinity()), vone = P::splat(Scalar(1)), vzero = P::splat(Scalar(0));
-    votes = P::select(d0 < vinf, vone, vzero);
-    has_ref = P::select((d0 < vinf) & (d0 == ref), vone, vzero);
-    best_mean = best_votes = best_has_ref = vzero;
-  }
+  SortedVote(const V& delta_, const V& ref_, const V& d0)
+      : delta(delta_), ref(ref_), m(d0), votes(P::select(d0 < vinf, vone, vzero)),
+        has_ref(P::select((d0 < vinf) & (d0 == ref_), vone, vzero)) {}
   /// Does the candidate (v, h) beat the best closed one? More votes; on a tie, the reference's.
   auto beats(const V& v, const V& h) const {
     return (v > best_votes) | ((v == best_votes) & (h > best_has_ref));
   }
   void add(const V& d) {
-    const V vinf = P::splat(std::numeric_limits<Scalar>::infinity()), vone = P::splat(Scalar(1)), vzero = P::splat(Scalar(0));
     const V diff = d - m;
     const V adiff = P::select(diff < vzero, -diff, diff);
     const auto valid = d < vinf;
@@ -88,7 +86,9 @@ struct SortedVote {
     const V is_ref = P::select(valid & (d == ref), vone, vzero);
     m = P::select(match, m + diff / nv, P::select(close, d, m));
     votes = P::select(match, nv, P::select(close, vone, votes));
-    has_ref = P::select(match, P::select(is_ref > has_ref, is_ref, has_ref), P::select(close, is_ref, has_ref));
+    // A new candidate holds the reference if d is it; the open one also if it held it already (an
+    // invalid d is no reference: is_ref = 0).
+    has_ref = P::select(close, is_ref, P::select(is_ref > has_ref, is_ref, has_ref));
   }
   /// Line 10: the winning candidate's mean and votes.
   void winner(V& mean, V& win_votes) const {
@@ -111,6 +111,7 @@ void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size
   const Scalar inf = std::numeric_limits<Scalar>::infinity();
   alignas(64) Scalar s[kMaxFusionViews][kBlock];
   alignas(64) Scalar mean[kBlock], votes_all[kBlock], ref[kBlock];
+  std::fill(ref, ref + kBlock, inf);  // no reference: +inf matches no depth
   const Scalar min_v = Scalar(min_votes);
   for (std::size_t b = begin; b < end; b += kBlock) {
     const std::size_t m = std::min(kBlock, end - b);
@@ -124,7 +125,6 @@ void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size
       for (std::size_t j = m; j < kBlock; ++j) sk[j] = inf;
     }
     if (reference_first) std::copy(s[0], s[0] + kBlock, ref);  // the reference view's depths, before the sort
-    else std::fill(ref, ref + kBlock, inf);                     // no reference: +inf matches no depth
     // Sort each pixel's depths ascending (n passes of compare-exchange on neighbouring planes).
     for (int pass = 0; pass < n; ++pass)
       for (int k = pass & 1; k + 1 < n; k += 2) {
