@@ -5,6 +5,7 @@
 // the time and pose error the default scaling trades (pose errors against the simulation's truth).
 // The four views are rendered once by the simulated sensor along a sensing arc swept at 80 % with
 // late kinematic poses (the fake robot's read lag), as the cycle captures them. Also the Table I model.
+// Each case runs at every SIMD level of this host ("isa", see bench_fusion.cpp).
 #include "bench.hpp"
 
 #include "binpick/active_vision.hpp"
@@ -73,7 +74,10 @@ int main(int argc, char** argv) {
     std::vector<Vector3<float>> objects;
     std::vector<float> conf;
     for (const auto& p : scene.parts()) objects.push_back(p.T_base_part.translation()), conf.push_back(60.0f);
+    for (const SimdLevel level : bench::simd_levels())
     for (const int threads : opt.threads) {
+      set_max_simd_level(level);
+      const char* isa = to_string(simd_level());
       Fuser<float, PinholeCamera<float>> fuser(sensor.camera());
       FusionSettings<float> fs = ps.fusion;
       fs.sensor_accuracy = sensor.accuracy();
@@ -106,14 +110,14 @@ int main(int argc, char** argv) {
           },
           opt.warmup, opt.trials);
       const auto fused_error = worst_error([&](std::size_t i) { return kept.views[i].T_base_view; });
-      bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
+      bench::JsonLine("cycle_fusion_icp").str("isa", isa).num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
           .str("output", "kept").str("strides", fs.stride_scale(wh[0]) > 1 ? "scaled" : "as_given").num("valid_fraction", double(valid) / (double(wh[0]) * wh[1]))
           .num("icp_iterations", icp_iterations).num("icp_inliers", icp_inliers)
           .num("kinematic_error_mm", kinematic_error.first).num("kinematic_error_deg", kinematic_error.second)
           .num("pose_error_mm", fused_error.first).num("pose_error_deg", fused_error.second)
           .num("last_registration_ms", kept.registration_ms).num("last_reprojection_ms", kept.reprojection_ms)
           .num("last_voting_ms", kept.voting_ms).stats(sf).print();
-      bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
+      bench::JsonLine("cycle_fusion_icp").str("isa", isa).num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
           .str("output", "new").stats(sf_new).print();
       if (fs.stride_scale(wh[0]) > 1) {  // the price of the strides scaled to the resolution: unscaled
         FusionSettings<float> full = fs;
@@ -121,12 +125,12 @@ int main(int argc, char** argv) {
         FusionResult<float> out;
         const auto sfull = bench::measure([&] { fuser.fuse(views, poses, full, out); }, opt.warmup, opt.trials);
         const auto full_error = worst_error([&](std::size_t i) { return out.views[i].T_base_view; });
-        bench::JsonLine("cycle_fusion_icp").num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
+        bench::JsonLine("cycle_fusion_icp").str("isa", isa).num("threads", threads).num("views", 4).num("width", wh[0]).num("height", wh[1])
             .str("output", "kept").str("strides", "as_given").num("pose_error_mm", full_error.first)
             .num("pose_error_deg", full_error.second).num("last_registration_ms", out.registration_ms).stats(sfull).print();
       }
       bench::JsonLine("cycle_planning").num("threads", threads).num("objects", double(objects.size())).stats(sp).print();
-      bench::JsonLine("cycle_processing_without_estimation").num("threads", threads).num("views", 4).num("width", wh[0])
+      bench::JsonLine("cycle_processing_without_estimation").str("isa", isa).num("threads", threads).num("views", 4).num("width", wh[0])
           .num("height", wh[1]).num("target_ms", 40).stats(sall).print();
     }
   }

@@ -1,5 +1,8 @@
 // bench_fusion: the fusion of 4 float views (reproject + vote, Alg. 1) at 640x480 and 1280x1024, 1 and 2
-// threads, with a memcpy of the same input bytes in the same run as the bandwidth floor.
+// threads, with a memcpy of the same input bytes in the same run as the bandwidth floor. Every case
+// runs at each SIMD level of this host ("isa": "baseline", "avx2"; "isa_choice": "run_time" when the
+// level is chosen at run time, "build" when the build fixes it, as bench_fusion_avx2's
+// -march=x86-64-v3 does).
 #include <cstring>
 #include <string>
 #include <random>
@@ -67,80 +70,85 @@ int main(int argc, char** argv) {
         .stats(mc).num("ms_per_view", mc.median / n_views)
         .num("gb_per_s", double(bytes) * n_views / (mc.median * 1e-3) / 1e9).print();
 
-    // The two stages alone, 1 thread: reprojecting one view, and voting 4 planes.
-    {
-      const auto rays = detail::RayTable<float>::make(cam);
-      const Isometry3f T = (T_base_views[0].inverse(Eigen::Isometry) * T_base_views[1]);
-      std::vector<std::vector<float>> planes(std::size_t(n_views), std::vector<float>(std::size_t(sz.w) * sz.h + 1));
-      const bench::Stats rp = bench::measure(
-          [&] { detail::reproject_to_plane(views[1], rays, T, cam, planes[1].data()); }, opt.warmup, opt.trials);
-      bench::JsonLine("reproject_one_view")
-          .str("impl", "binpick").str("isa", BINPICK_BENCH_ISA).num("threads", 1).num("width", sz.w).num("height", sz.h).num("views", 1)
-          .stats(rp).num("ms_per_view", rp.median).print();
-      for (int i = 0; i < n_views; ++i)
-        detail::reproject_to_plane(views[std::size_t(i)], rays,
-                                   Isometry3f(T_base_views[0].inverse(Eigen::Isometry) * T_base_views[std::size_t(i)]), cam,
-                                   planes[std::size_t(i)].data());
-      std::vector<const float*> ptrs;
-      for (auto& p : planes) ptrs.push_back(p.data());
-      std::vector<float> out(std::size_t(sz.w) * sz.h);
-      const bench::Stats vt = bench::measure(
-          [&] { vote<float>(ptrs, sz.w, sz.h, VotingSettings<float>{0.002f, 1}, out.data()); }, opt.warmup, opt.trials);
-      std::size_t slow = 0;
-      for (std::size_t i = 0; i < out.size(); ++i) {
-        float lo = 1e9f, hi = 0;
-        for (auto* p : ptrs)
-          if (p[i] > 0 && p[i] < 1e9f) lo = std::min(lo, p[i]), hi = std::max(hi, p[i]);
-        slow += hi > 0 && hi - lo >= 0.002f;
+    for (const SimdLevel level : bench::simd_levels()) {
+      set_max_simd_level(level);
+      const std::string isa = BINPICK_SIMD_DISPATCH ? to_string(simd_level()) : BINPICK_BENCH_ISA;
+      const char* isa_choice = BINPICK_SIMD_DISPATCH ? "run_time" : "build";
+      // The two stages alone, 1 thread: reprojecting one view, and voting 4 planes.
+      {
+        const auto rays = detail::RayTable<float>::make(cam);
+        const Isometry3f T = (T_base_views[0].inverse(Eigen::Isometry) * T_base_views[1]);
+        std::vector<std::vector<float>> planes(std::size_t(n_views), std::vector<float>(std::size_t(sz.w) * sz.h));
+        const bench::Stats rp = bench::measure(
+            [&] { detail::reproject_to_plane(views[1], rays, T, cam, planes[1].data()); }, opt.warmup, opt.trials);
+        bench::JsonLine("reproject_one_view")
+            .str("impl", "binpick").str("isa", isa).str("isa_choice", isa_choice).num("threads", 1).num("width", sz.w).num("height", sz.h).num("views", 1)
+            .stats(rp).num("ms_per_view", rp.median).print();
+        for (int i = 0; i < n_views; ++i)
+          detail::reproject_to_plane(views[std::size_t(i)], rays,
+                                     Isometry3f(T_base_views[0].inverse(Eigen::Isometry) * T_base_views[std::size_t(i)]), cam,
+                                     planes[std::size_t(i)].data());
+        std::vector<const float*> ptrs;
+        for (auto& p : planes) ptrs.push_back(p.data());
+        std::vector<float> out(std::size_t(sz.w) * sz.h);
+        const bench::Stats vt = bench::measure(
+            [&] { vote<float>(ptrs, sz.w, sz.h, VotingSettings<float>{0.002f, 1}, out.data()); }, opt.warmup, opt.trials);
+        std::size_t slow = 0;
+        for (std::size_t i = 0; i < out.size(); ++i) {
+          float lo = 1e9f, hi = 0;
+          for (auto* p : ptrs)
+            if (p[i] > 0 && p[i] < 1e9f) lo = std::min(lo, p[i]), hi = std::max(hi, p[i]);
+          slow += hi > 0 && hi - lo >= 0.002f;
+        }
+        bench::JsonLine("vote_planes")
+            .str("impl", "binpick").str("isa", isa).str("isa_choice", isa_choice).num("threads", 1).num("width", sz.w).num("height", sz.h).num("views", n_views)
+            .stats(vt).num("ms_per_view", vt.median / n_views).num("disagreeing_pixel_fraction", double(slow) / out.size())
+            .print();
       }
-      bench::JsonLine("vote_planes")
-          .str("impl", "binpick").str("isa", BINPICK_BENCH_ISA).num("threads", 1).num("width", sz.w).num("height", sz.h).num("views", n_views)
-          .stats(vt).num("ms_per_view", vt.median / n_views).num("disagreeing_pixel_fraction", double(slow) / out.size())
-          .print();
-    }
 
-    Fuser<float, PinholeCamera<float>> fuser(cam);
-    for (int threads : opt.threads) {
-      FusionSettings<float> s;
-      s.num_threads = threads;
-      s.register_views = false;
-      std::size_t valid = 0;
-      const bench::Stats st = bench::measure(
-          [&] {
-            const auto r = fuser.fuse(views, T_base_views, s);
-            valid = r.valid_pixels;
-          },
-          opt.warmup, opt.trials);
-      bench::JsonLine("fuse")
-          .str("impl", "binpick").str("isa", BINPICK_BENCH_ISA).num("threads", threads).num("width", sz.w).num("height", sz.h).num("views", n_views)
-          .stats(st).num("ms_per_view", st.median / n_views).num("ratio_to_memcpy", st.median / mc.median)
-          .num("valid_pixels_fused", double(valid)).num("valid_pixels_view1", double(imgs[0].valid_count()))
-          .print();
-    }
-    // With registration (§III.B.2): views 2..4 start from kinematic poses read 20 ms late at 0.5 m/s.
-    std::vector<Isometry3f> T_kinematic = T_base_views;
-    for (int i = 1; i < n_views; ++i) {
-      Isometry3f late = T_base_views[std::size_t(i)];
-      late.translation().x() -= 0.01f;
-      late.linear() = late.linear() * Eigen::AngleAxisf(0.03f, Eigen::Vector3f::UnitY()).toRotationMatrix();
-      T_kinematic[std::size_t(i)] = late;
-    }
-    for (int threads : opt.threads) {
-      FusionSettings<float> s;
-      s.num_threads = threads;
-      FusionResult<float> last;
-      const bench::Stats st = bench::measure([&] { last = fuser.fuse(views, T_kinematic, s); }, opt.warmup, opt.trials);
-      double rmse = 0, iters = 0, inliers = 0;
-      for (int i = 1; i < n_views; ++i) {
-        rmse += last.views[std::size_t(i)].icp_rmse / (n_views - 1);
-        iters += last.views[std::size_t(i)].icp_iterations;
-        inliers += double(last.views[std::size_t(i)].icp_inliers);
+      Fuser<float, PinholeCamera<float>> fuser(cam);
+      for (int threads : opt.threads) {
+        FusionSettings<float> s;
+        s.num_threads = threads;
+        s.register_views = false;
+        std::size_t valid = 0;
+        const bench::Stats st = bench::measure(
+            [&] {
+              const auto r = fuser.fuse(views, T_base_views, s);
+              valid = r.valid_pixels;
+            },
+            opt.warmup, opt.trials);
+        bench::JsonLine("fuse")
+            .str("impl", "binpick").str("isa", isa).str("isa_choice", isa_choice).num("threads", threads).num("width", sz.w).num("height", sz.h).num("views", n_views)
+            .stats(st).num("ms_per_view", st.median / n_views).num("ratio_to_memcpy", st.median / mc.median)
+            .num("valid_pixels_fused", double(valid)).num("valid_pixels_view1", double(imgs[0].valid_count()))
+            .print();
       }
-      bench::JsonLine("fuse_with_registration")
-          .str("impl", "binpick").str("isa", BINPICK_BENCH_ISA).num("threads", threads).num("width", sz.w).num("height", sz.h).num("views", n_views)
-          .stats(st).num("ms_per_view", st.median / n_views).num("rmse", rmse).num("iterations", iters)
-          .num("correspondences", inliers).num("valid_pixels_fused", double(last.valid_pixels)).print();
-    }
+      // With registration (§III.B.2): views 2..4 start from kinematic poses read 20 ms late at 0.5 m/s.
+      std::vector<Isometry3f> T_kinematic = T_base_views;
+      for (int i = 1; i < n_views; ++i) {
+        Isometry3f late = T_base_views[std::size_t(i)];
+        late.translation().x() -= 0.01f;
+        late.linear() = late.linear() * Eigen::AngleAxisf(0.03f, Eigen::Vector3f::UnitY()).toRotationMatrix();
+        T_kinematic[std::size_t(i)] = late;
+      }
+      for (int threads : opt.threads) {
+        FusionSettings<float> s;
+        s.num_threads = threads;
+        FusionResult<float> last;
+        const bench::Stats st = bench::measure([&] { last = fuser.fuse(views, T_kinematic, s); }, opt.warmup, opt.trials);
+        double rmse = 0, iters = 0, inliers = 0;
+        for (int i = 1; i < n_views; ++i) {
+          rmse += last.views[std::size_t(i)].icp_rmse / (n_views - 1);
+          iters += last.views[std::size_t(i)].icp_iterations;
+          inliers += double(last.views[std::size_t(i)].icp_inliers);
+        }
+        bench::JsonLine("fuse_with_registration")
+            .str("impl", "binpick").str("isa", isa).str("isa_choice", isa_choice).num("threads", threads).num("width", sz.w).num("height", sz.h).num("views", n_views)
+            .stats(st).num("ms_per_view", st.median / n_views).num("rmse", rmse).num("iterations", iters)
+            .num("correspondences", inliers).num("valid_pixels_fused", double(last.valid_pixels)).print();
+      }
+    }  // SIMD levels
   }
   return 0;
 }

@@ -8,3 +8,4 @@
 #include "binpick/core/parallel.hpp"
 #include "binpick/core/pose.hpp"
 #include "binpick/core/scalar_traits.hpp"
+#include "binpick/core/simd_level.hpp"

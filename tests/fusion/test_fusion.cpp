@@ -50,6 +50,21 @@ bool smooth(const DepthImage<Scalar>& truth, int u, int v) {
   return lo > 0 && hi - lo < Scalar(0.004);
 }
 
+// The SIMD levels the kernels can run at here (core/simd_level.hpp): the baseline, and AVX2 when the
+// CPU has it.
+std::vector<SimdLevel> simd_levels() {
+  std::vector<SimdLevel> levels{SimdLevel::baseline};
+  set_max_simd_level(SimdLevel::avx2);
+  if (simd_level() == SimdLevel::avx2) levels.push_back(SimdLevel::avx2);
+  return levels;
+}
+
+// Caps the SIMD level for a scope.
+struct SimdCap {
+  explicit SimdCap(SimdLevel level) { set_max_simd_level(level); }
+  ~SimdCap() { set_max_simd_level(SimdLevel::avx2); }
+};
+
 // Alg. 1 written naively: per pixel a growable candidate list, each depth compared with every
 // candidate (nearest one within delta wins), depths taken in the given order. The most votes win;
 // ties go to a candidate that took a depth equal to `reference` (the reference view's), else to the
@@ -263,7 +278,8 @@ TEST(Reproject, BrownConradySourceIntoPinholeTargetMatchesTruth) {
 }
 
 // Differential: the optimized voting against the naive reference, on random per-pixel depths with
-// clusters, ghosts and invalid values.
+// clusters, ghosts and invalid values; at every SIMD level this machine runs (37 pixels a row: packs
+// and a tail).
 RC_GTEST_PROP(Voting, MatchesNaiveReference, ()) {
   const int n = *rc::gen::inRange(1, 9);
   const int w = 37, h = 11;
@@ -289,6 +305,8 @@ RC_GTEST_PROP(Voting, MatchesNaiveReference, ()) {
   }
   std::vector<const double*> ptrs;
   for (const auto& p : planes) ptrs.push_back(p.data());
+  for (const SimdLevel level : simd_levels()) {
+  const SimdCap cap(level);
   std::vector<double> out(std::size_t(w * h));
   VoteMap votes;
   vote<double>(ptrs, w, h, {delta, min_votes, reference_first}, out.data(), &votes);
@@ -305,6 +323,7 @@ RC_GTEST_PROP(Voting, MatchesNaiveReference, ()) {
     RC_ASSERT(std::abs(out[std::size_t(i)] - ref) <= 1e-12);
     RC_ASSERT(int(votes.votes[std::size_t(i)]) == ref_votes);
     RC_ASSERT(std::isfinite(out[std::size_t(i)]));
+  }
   }
 }
 
@@ -362,6 +381,48 @@ TEST(Voting, TiesGoToTheReferenceViewsCandidate) {
       EXPECT_NEAR(out, c.expected_without_reference, 1e-6f)
           << "case " << (&c - cases.data()) << ", " << n << " views, no reference";
     }
+}
+
+// The AVX2 kernels chosen at run time do what the baseline ones do: reprojection to the bit (no FMA,
+// the same operations per lane); the vote to the bit in its votes and within float rounding in depth
+// (pixels whose views all agree take a shortcut decided per pack, and a pack is 8 pixels wide, not 4).
+// An odd width (157) leaves a tail in every row.
+TEST(Simd, AVX2KernelsMatchTheBaseline) {
+  const std::vector<SimdLevel> levels = simd_levels();
+  if (levels.size() < 2) GTEST_SKIP() << "this build or CPU runs one SIMD level only";
+  const PinholeCamera<float> cam(200.f, 200.f, 78.f, 56.f, 157, 113);
+  const auto scene = sim::boxes_scene();
+  const auto poses = sim::arc_poses(4);
+  std::mt19937 rng(7);
+  std::normal_distribution<float> noise(0.f, 0.0015f);
+  std::vector<DepthImage<float>> imgs;
+  for (const auto& T : poses) {
+    auto img = scene.render<float>(cam, T);
+    for (auto& d : img.storage())
+      if (d > 0) d += (rng() % 50 == 0) ? 0.03f : noise(rng);
+    imgs.push_back(img);
+  }
+  FusionSettings<float> s;
+  s.compute_votes = true;
+  s.register_views = false;
+  std::vector<DepthImage<float>> reprojected;
+  std::vector<FusionResult<float>> fused;
+  for (const SimdLevel level : levels) {
+    const SimdCap cap(level);
+    ASSERT_EQ(simd_level(), level);
+    reprojected.push_back(reproject(imgs[1].view(), cam, Isometry3f(relative_pose(poses[0], poses[1]).cast<float>()), cam));
+    fused.push_back(fuse(views_of(imgs), cast_poses<float>(poses), cam, s));
+  }
+  EXPECT_GT(reprojected[0].valid_count(), std::size_t(cam.width() * cam.height() / 2));
+  EXPECT_TRUE(reprojected[0].storage() == reprojected[1].storage());
+  EXPECT_TRUE(fused[0].votes.votes == fused[1].votes.votes);
+  std::size_t disagreeing = 0;
+  for (std::size_t i = 0; i < fused[0].depth.storage().size(); ++i) {
+    const float a = fused[0].depth.storage()[i], b = fused[1].depth.storage()[i];
+    ASSERT_LE(std::abs(a - b), 1e-6f * a) << "pixel " << i;
+    disagreeing += fused[0].votes.votes[i] > 0 && fused[0].votes.votes[i] < 4;
+  }
+  EXPECT_GT(disagreeing, std::size_t(100));  // the full Alg. 1 path ran, not only the shortcut
 }
 
 TEST(Fusion, BadInputThrowsNamingTheArgument) {

@@ -261,7 +261,7 @@ class Fuser {
     const std::size_t npix = std::size_t(w) * std::size_t(h);
     const std::size_t nplanes = views.size();
     planes_.resize(nplanes);
-    for (auto& p : planes_) p.resize(npix + 1);  // + the spare slot of reproject_to_plane
+    for (auto& p : planes_) p.resize(npix);
 
     result.T_base_target = T_base_target;
     result.views.assign(views.size(), FusionViewReport<Scalar>{});

@@ -50,14 +50,15 @@ struct VoteMap {
 constexpr int kMaxFusionViews = 64;
 
 namespace detail {
+BINPICK_SIMD_BEGIN
 
 /// Alg. 1 over one pack of pixels' depths in ascending order (invalid = +inf, last), with selects
 /// instead of branches: a conditional division is control flow to the auto-vectorizer. `ref` is the
 /// reference view's depth of each pixel (+inf when it has none); the constructor takes the smallest
 /// depth, add() each next one, and winner() gives the mean and votes of the chosen candidate.
-template <typename Scalar>
+template <typename Scalar, int Bytes = kPackBytes>
 struct SortedVote {
-  using P = Pack<Scalar>;
+  using P = Pack<Scalar, Bytes>;
   using V = typename P::type;
   const V vinf = P::splat(std::numeric_limits<Scalar>::infinity()), vone = P::splat(Scalar(1)),
           vzero = P::splat(Scalar(0));
@@ -65,14 +66,14 @@ struct SortedVote {
   V m, votes, has_ref;                     // the open candidate (always the farthest so far)
   V best_mean = vzero, best_votes = vzero, best_has_ref = vzero;  // the best closed one
 
-  SortedVote(const V& delta_, const V& ref_, const V& d0)
+  BINPICK_SIMD_INLINE SortedVote(const V& delta_, const V& ref_, const V& d0)
       : delta(delta_), ref(ref_), m(d0), votes(P::select(d0 < vinf, vone, vzero)),
         has_ref(P::select((d0 < vinf) & (d0 == ref_), vone, vzero)) {}
   /// Does the candidate (v, h) beat the best closed one? More votes; on a tie, the reference's.
-  auto beats(const V& v, const V& h) const {
+  BINPICK_SIMD_INLINE auto beats(const V& v, const V& h) const {
     return (v > best_votes) | ((v == best_votes) & (h > best_has_ref));
   }
-  void add(const V& d) {
+  BINPICK_SIMD_INLINE void add(const V& d) {
     const V diff = d - m;
     const V adiff = P::select(diff < vzero, -diff, diff);
     const auto valid = d < vinf;
@@ -91,7 +92,7 @@ struct SortedVote {
     has_ref = P::select(close, is_ref, P::select(is_ref > has_ref, is_ref, has_ref));
   }
   /// Line 10: the winning candidate's mean and votes.
-  void winner(V& mean, V& win_votes) const {
+  BINPICK_SIMD_INLINE void winner(V& mean, V& win_votes) const {
     const auto better = beats(votes, has_ref);
     mean = P::select(better, m, best_mean);
     win_votes = P::select(better, votes, best_votes);
@@ -157,10 +158,11 @@ void vote_range(const Scalar* const* planes, int n, std::size_t begin, std::size
 
 /// vote_range for a view count known at compile time: each pack of pixels keeps its N depths in
 /// registers through the sort network and Alg. 1 (no block copies); the tail goes to vote_range.
-template <typename Scalar, int N>
-void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_t end, Scalar delta, int min_votes,
-                      bool reference_first, Scalar* out, std::uint8_t* votes_out) {
-  using P = Pack<Scalar>;
+/// Packs of `Bytes` (inlined into simd_call's choice, see vote_pixels).
+template <typename Scalar, int N, int Bytes>
+BINPICK_SIMD_INLINE void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_t end, Scalar delta,
+                                          int min_votes, bool reference_first, Scalar* out, std::uint8_t* votes_out) {
+  using P = Pack<Scalar, Bytes>;
   using V = typename P::type;
   const Scalar inf = std::numeric_limits<Scalar>::infinity();
   const V vinf = P::splat(inf), vdelta = P::splat(delta), vone = P::splat(Scalar(1)), vzero = P::splat(Scalar(0));
@@ -198,7 +200,7 @@ void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_
         d[k] = lo;
         d[k + 1] = hi;
       }
-    SortedVote<Scalar> sv(vdelta, ref, d[0]);
+    SortedVote<Scalar, Bytes> sv(vdelta, ref, d[0]);
     for (int k = 1; k < N; ++k) sv.add(d[k]);
     V win_mean, win_votes;
     sv.winner(win_mean, win_votes);
@@ -209,21 +211,26 @@ void vote_range_fixed(const Scalar* const* planes, std::size_t begin, std::size_
   if (j < end) vote_range(planes, N, j, end, delta, min_votes, reference_first, out, votes_out);
 }
 
-/// Dispatches to the register-resident kernel for 2..8 views, the block kernel otherwise.
+/// Dispatches to the register-resident kernel for 2..8 views (at simd_level()), the block kernel
+/// otherwise.
 template <typename Scalar>
 void vote_pixels(const Scalar* const* planes, int n, std::size_t begin, std::size_t end, Scalar delta, int min_votes,
                  bool reference_first, Scalar* out, std::uint8_t* votes_out) {
-  switch (n) {
-    case 2: return vote_range_fixed<Scalar, 2>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
-    case 3: return vote_range_fixed<Scalar, 3>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
-    case 4: return vote_range_fixed<Scalar, 4>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
-    case 5: return vote_range_fixed<Scalar, 5>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
-    case 6: return vote_range_fixed<Scalar, 6>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
-    case 8: return vote_range_fixed<Scalar, 8>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
-    default: return vote_range(planes, n, begin, end, delta, min_votes, reference_first, out, votes_out);
-  }
+  simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+    constexpr int B = decltype(bytes)::value;
+    switch (n) {
+      case 2: return vote_range_fixed<Scalar, 2, B>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+      case 3: return vote_range_fixed<Scalar, 3, B>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+      case 4: return vote_range_fixed<Scalar, 4, B>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+      case 5: return vote_range_fixed<Scalar, 5, B>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+      case 6: return vote_range_fixed<Scalar, 6, B>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+      case 8: return vote_range_fixed<Scalar, 8, B>(planes, begin, end, delta, min_votes, reference_first, out, votes_out);
+      default: return vote_range(planes, n, begin, end, delta, min_votes, reference_first, out, votes_out);
+    }
+  });
 }
 
+BINPICK_SIMD_END
 }  // namespace detail
 
 /// Votes `planes` (each `width * height` depths [m] of the target view; 0, negative, +inf or NaN = no

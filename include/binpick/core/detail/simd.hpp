@@ -1,52 +1,85 @@
 #pragma once
 /// \file simd.hpp
 /// Portable SIMD packs through the GCC/Clang vector extension (SSE2 on x86-64, NEON on ARM,
-/// scalar code elsewhere) — the baseline ISA only, so nothing depends on -march. Used where the
-/// auto-vectorizer gives up on select-heavy loops (conditional divisions count as control flow).
+/// scalar code elsewhere). Used where the auto-vectorizer gives up on select-heavy loops
+/// (conditional divisions count as control flow). A kernel written once over `Pack<Scalar, Bytes>`
+/// runs at the build's ISA and, through simd_call(), also with AVX2 chosen at run time
+/// (core/simd_level.hpp).
 
 #include <cstring>
+#include <type_traits>
+
+#include "binpick/core/simd_level.hpp"
+
+/// Forces inlining: a kernel body and every helper taking packs must be inlined into the function
+/// that carries the AVX2 target attribute, or its 32-byte packs would be compiled for the baseline.
+#define BINPICK_SIMD_INLINE inline __attribute__((always_inline))
+/// The same for a lambda (after its parameter list).
+#define BINPICK_SIMD_INLINE_LAMBDA __attribute__((always_inline))
+/// Around code that passes 32-byte packs between always-inlined helpers: compiled outside an AVX
+/// function they draw GCC/Clang's ABI note, but such calls never survive inlining, so no ABI changes.
+#define BINPICK_SIMD_BEGIN _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wpsabi\"")
+#define BINPICK_SIMD_END _Pragma("GCC diagnostic pop")
 
 namespace binpick {
 namespace detail {
 
-/// Pack width [bytes]: 16 at the baseline ISA; 32 when the translation unit is compiled for AVX2
-/// (opt-in, e.g. -march=x86-64-v3 or BINPICK_NATIVE_ARCH=ON), which also gives single-instruction
-/// blends.
+/// Pack width [bytes] of the build's ISA: 16 at the baseline; 32 when the translation unit is
+/// compiled for AVX2 (opt-in, e.g. -march=x86-64-v3 or BINPICK_NATIVE_ARCH=ON), which also gives
+/// single-instruction blends.
 #if defined(__AVX2__)
 constexpr int kPackBytes = 32;
 #else
 constexpr int kPackBytes = 16;
 #endif
 
-template <typename Scalar>
-struct Pack {
-  static constexpr int size = int(kPackBytes / sizeof(Scalar));
-  typedef Scalar type __attribute__((vector_size(kPackBytes)));
+BINPICK_SIMD_BEGIN
 
-  static type load(const Scalar* p) {
+template <typename Scalar, int Bytes = kPackBytes>
+struct Pack {
+  static constexpr int size = int(Bytes / sizeof(Scalar));
+  typedef Scalar type __attribute__((vector_size(Bytes)));
+  using mask = decltype(type() < type());  ///< comparison result: signed integer lanes, all-ones or zero
+
+  BINPICK_SIMD_INLINE static type load(const Scalar* p) {
     type v;
     std::memcpy(&v, p, sizeof v);
     return v;
   }
-  static void store(Scalar* p, const type& v) { std::memcpy(p, &v, sizeof v); }
-  static type splat(Scalar s) {
+  BINPICK_SIMD_INLINE static void store(Scalar* p, const type& v) { std::memcpy(p, &v, sizeof v); }
+  BINPICK_SIMD_INLINE static type splat(Scalar s) {
     type v;
     for (int i = 0; i < size; ++i) v[i] = s;
     return v;
   }
   /// True when every lane of a comparison mask is set.
-  template <typename Mask>
-  static bool all(const Mask& mask) {
+  BINPICK_SIMD_INLINE static bool all(const mask& m) {
     bool r = true;
-    for (int i = 0; i < size; ++i) r &= mask[i] != 0;
+    for (int i = 0; i < size; ++i) r &= m[i] != 0;
     return r;
   }
   /// Lane-wise mask ? a : b (mask lanes are all-ones or zero, as comparisons produce).
-  template <typename Mask>
-  static type select(const Mask& mask, const type& a, const type& b) {
-    return mask ? a : b;
-  }
+  BINPICK_SIMD_INLINE static type select(const mask& m, const type& a, const type& b) { return m ? a : b; }
 };
+
+#if BINPICK_SIMD_DISPATCH
+template <typename F>
+__attribute__((target("avx2"))) void simd_call_avx2(F& f) {
+  f(std::integral_constant<int, 32>{});
+}
+#endif
+
+/// Runs `f(std::integral_constant<int, Bytes>{})` with the pack width of simd_level(): `f` is a
+/// generic lambda marked BINPICK_SIMD_INLINE_LAMBDA whose body uses Pack<Scalar, Bytes>.
+template <typename F>
+void simd_call(F&& f) {
+#if BINPICK_SIMD_DISPATCH
+  if (simd_level() == SimdLevel::avx2) return simd_call_avx2(f);
+#endif
+  f(std::integral_constant<int, kPackBytes>{});
+}
+
+BINPICK_SIMD_END
 
 }  // namespace detail
 }  // namespace binpick
