@@ -422,7 +422,7 @@ class Fuser {
         Scalar* out = plane + std::size_t(v) * std::size_t(w);
         for (int u = 0; u < w; ++u) {
           const Scalar d = Scalar(row[u]) * scale;
-          const bool ok = d > Scalar(0) && d < inf;
+          const bool ok = (d > Scalar(0)) & (d < inf);  // & not &&: branch-free, so it vectorizes
           out[u] = ok ? d : inf;
           valid += ok;
         }

@@ -188,8 +188,7 @@ BINPICK_SIMD_INLINE void vote_range_fixed(const Scalar* const* planes, std::size
       for (int k = 0; k < N; ++k) sum = sum + P::select(d[k] < vinf, d[k] - lo, vzero);
       const V mean = lo + sum / P::select(count > vzero, count, vone);
       P::store(out + j, P::select((count >= vmin) & (count > vzero), mean, vzero));
-      if (votes_out)
-        for (int l = 0; l < P::size; ++l) votes_out[j + std::size_t(l)] = std::uint8_t(count[l]);
+      if (votes_out) P::store_bytes(votes_out + j, count);
       continue;
     }
     const V ref = reference_first ? d[0] : vinf;  // the reference view's depths, before the sort
@@ -205,8 +204,7 @@ BINPICK_SIMD_INLINE void vote_range_fixed(const Scalar* const* planes, std::size
     V win_mean, win_votes;
     sv.winner(win_mean, win_votes);
     P::store(out + j, P::select(win_votes >= vmin, win_mean, vzero));
-    if (votes_out)
-      for (int l = 0; l < P::size; ++l) votes_out[j + std::size_t(l)] = std::uint8_t(win_votes[l]);
+    if (votes_out) P::store_bytes(votes_out + j, win_votes);
   }
   if (j < end) vote_range(planes, N, j, end, delta, min_votes, reference_first, out, votes_out);
 }

@@ -35,6 +35,12 @@ constexpr int kPackBytes = 16;
 
 BINPICK_SIMD_BEGIN
 
+/// A vector of N lanes of T (the narrowing conversions of Pack::store_bytes).
+template <typename T, int N>
+struct Lanes {
+  typedef T type __attribute__((vector_size(N * sizeof(T))));
+};
+
 template <typename Scalar, int Bytes = kPackBytes>
 struct Pack {
   static constexpr int size = int(Bytes / sizeof(Scalar));
@@ -51,6 +57,14 @@ struct Pack {
     type v;
     for (int i = 0; i < size; ++i) v[i] = s;
     return v;
+  }
+  /// Stores each lane, a whole number in [0, 255], as one byte (a single conversion and a narrowing
+  /// store, not one scalar conversion a lane).
+  BINPICK_SIMD_INLINE static void store_bytes(unsigned char* p, const type& v) {
+    const typename Lanes<int, size>::type i = __builtin_convertvector(v, typename Lanes<int, size>::type);
+    const typename Lanes<unsigned char, size>::type b =
+        __builtin_convertvector(i, typename Lanes<unsigned char, size>::type);
+    std::memcpy(p, &b, sizeof b);
   }
   /// True when every lane of a comparison mask is set.
   BINPICK_SIMD_INLINE static bool all(const mask& m) {
