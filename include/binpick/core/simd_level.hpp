@@ -5,8 +5,9 @@
 /// has it: the kernels are compiled for both and chosen at run time, once per call. AVX2 here means
 /// 8-lane float packs without FMA, so both levels round alike; the vote's shortcut for pixels whose
 /// views all agree is taken per pack, so fused depths may differ in the last bit between levels
-/// (votes never). A build with AVX2 on (e.g. -march=x86-64-v3, BINPICK_NATIVE_ARCH=ON) uses it
-/// everywhere and has nothing to choose; so do non-x86 targets (NEON packs).
+/// (votes never). A build with AVX2 on (e.g. -march=x86-64-v3) uses it everywhere and has nothing to
+/// choose; so do non-x86 targets (NEON packs). Defining BINPICK_NO_SIMD_DISPATCH (CMake:
+/// BINPICK_SIMD_DISPATCH=OFF) keeps a baseline build at the baseline: no AVX2 code is emitted.
 ///
 /// \code
 ///   binpick::set_max_simd_level(binpick::SimdLevel::baseline);  // e.g. for bit-equal runs across hosts

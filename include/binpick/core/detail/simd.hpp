@@ -25,7 +25,7 @@ namespace binpick {
 namespace detail {
 
 /// Pack width [bytes] of the build's ISA: 16 at the baseline; 32 when the translation unit is
-/// compiled for AVX2 (opt-in, e.g. -march=x86-64-v3 or BINPICK_NATIVE_ARCH=ON), which also gives
+/// compiled for AVX2 (opt-in, e.g. -march=x86-64-v3), which also gives
 /// single-instruction blends.
 #if defined(__AVX2__)
 constexpr int kPackBytes = 32;
