@@ -13,21 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "binpick/core/simd_level.hpp"
-
 namespace binpick::bench {
-
-/// The SIMD levels the fusion kernels can run at on this host (core/simd_level.hpp), for benchmarks
-/// that compare them in one run: the baseline, then AVX2 when the CPU (or the build) has it. Leaves
-/// the cap at the widest.
-inline std::vector<SimdLevel> simd_levels() {
-  std::vector<SimdLevel> levels;
-  set_max_simd_level(SimdLevel::baseline);
-  levels.push_back(simd_level());
-  set_max_simd_level(SimdLevel::avx2);
-  if (simd_level() != levels.back()) levels.push_back(simd_level());
-  return levels;
-}
 
 struct Options {
   std::vector<int> threads{1, 2};  ///< thread counts to run each case with

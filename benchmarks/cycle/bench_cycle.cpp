@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
     std::vector<Vector3<float>> objects;
     std::vector<float> conf;
     for (const auto& p : scene.parts()) objects.push_back(p.T_base_part.translation()), conf.push_back(60.0f);
-    for (const SimdLevel level : bench::simd_levels())
+    for (const SimdLevel level : available_simd_levels())
     for (const int threads : opt.threads) {
       set_max_simd_level(level);
       const char* isa = to_string(simd_level());

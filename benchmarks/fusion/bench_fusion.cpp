@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
         .stats(mc).num("ms_per_view", mc.median / n_views)
         .num("gb_per_s", double(bytes) * n_views / (mc.median * 1e-3) / 1e9).print();
 
-    for (const SimdLevel level : bench::simd_levels()) {
+    for (const SimdLevel level : available_simd_levels()) {
       set_max_simd_level(level);
       const std::string isa = BINPICK_SIMD_DISPATCH ? to_string(simd_level()) : BINPICK_BENCH_ISA;
       const char* isa_choice = BINPICK_SIMD_DISPATCH ? "run_time" : "build";

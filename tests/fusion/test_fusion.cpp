@@ -50,15 +50,6 @@ bool smooth(const DepthImage<Scalar>& truth, int u, int v) {
   return lo > 0 && hi - lo < Scalar(0.004);
 }
 
-// The SIMD levels the kernels can run at here (core/simd_level.hpp): the baseline, and AVX2 when the
-// CPU has it.
-std::vector<SimdLevel> simd_levels() {
-  std::vector<SimdLevel> levels{SimdLevel::baseline};
-  set_max_simd_level(SimdLevel::avx2);
-  if (simd_level() == SimdLevel::avx2) levels.push_back(SimdLevel::avx2);
-  return levels;
-}
-
 // Caps the SIMD level for a scope.
 struct SimdCap {
   explicit SimdCap(SimdLevel level) { set_max_simd_level(level); }
@@ -305,7 +296,7 @@ RC_GTEST_PROP(Voting, MatchesNaiveReference, ()) {
   }
   std::vector<const double*> ptrs;
   for (const auto& p : planes) ptrs.push_back(p.data());
-  for (const SimdLevel level : simd_levels()) {
+  for (const SimdLevel level : available_simd_levels()) {
   const SimdCap cap(level);
   std::vector<double> out(std::size_t(w * h));
   VoteMap votes;
@@ -388,7 +379,7 @@ TEST(Voting, TiesGoToTheReferenceViewsCandidate) {
 // (pixels whose views all agree take a shortcut decided per pack, and a pack is 8 pixels wide, not 4).
 // An odd width (157) leaves a tail in every row.
 TEST(Simd, AVX2KernelsMatchTheBaseline) {
-  const std::vector<SimdLevel> levels = simd_levels();
+  const std::vector<SimdLevel> levels = available_simd_levels();
   if (levels.size() < 2) GTEST_SKIP() << "this build or CPU runs one SIMD level only";
   const PinholeCamera<float> cam(200.f, 200.f, 78.f, 56.f, 157, 113);
   const auto scene = sim::boxes_scene();

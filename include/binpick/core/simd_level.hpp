@@ -14,6 +14,7 @@
 /// \endcode
 
 #include <atomic>
+#include <vector>
 
 namespace binpick {
 
@@ -64,6 +65,20 @@ inline SimdLevel simd_level() {
   return SimdLevel::avx2;
 #else
   return SimdLevel::baseline;
+#endif
+}
+
+/// The levels simd_level() can take in this build on this CPU, lowest first (what a test or a
+/// benchmark comparing the levels runs through with set_max_simd_level): one level in builds that do
+/// not choose.
+inline std::vector<SimdLevel> available_simd_levels() {
+#if BINPICK_SIMD_DISPATCH
+  if (detail::cpu_has_avx2()) return {SimdLevel::baseline, SimdLevel::avx2};
+  return {SimdLevel::baseline};
+#elif defined(__AVX2__)
+  return {SimdLevel::avx2};
+#else
+  return {SimdLevel::baseline};
 #endif
 }
 

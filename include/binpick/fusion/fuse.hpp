@@ -305,7 +305,7 @@ class Fuser {
     if (settings.compute_votes) {
       result.votes.width = w;
       result.votes.height = h;
-      result.votes.votes.assign(npix, 0);
+      result.votes.votes.resize(npix);  // the vote writes every pixel's count
       vote_ptr = result.votes.votes.data();
     } else {
       result.votes = VoteMap{};
@@ -414,19 +414,10 @@ class Fuser {
     const int w = view.width();
     return view.dispatch([&](auto tag) {
       using T = decltype(tag);
-      const Scalar scale = view.metres_per_unit();
-      const Scalar inf = std::numeric_limits<Scalar>::infinity();
       std::size_t valid = 0;
-      for (int v = 0; v < view.height(); ++v) {
-        const T* row = view.template row<T>(v);
-        Scalar* out = plane + std::size_t(v) * std::size_t(w);
-        for (int u = 0; u < w; ++u) {
-          const Scalar d = Scalar(row[u]) * scale;
-          const bool ok = (d > Scalar(0)) & (d < inf);  // & not &&: branch-free, so it vectorizes
-          out[u] = ok ? d : inf;
-          valid += ok;
-        }
-      }
+      for (int v = 0; v < view.height(); ++v)
+        valid += detail::decode_row(view.template row<T>(v), w, view.metres_per_unit(),
+                                    std::numeric_limits<Scalar>::infinity(), plane + std::size_t(v) * std::size_t(w));
       return valid;
     });
   }

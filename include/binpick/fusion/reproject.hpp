@@ -41,6 +41,22 @@ struct TargetProjector {
   }
 };
 
+/// Decodes `w` depths of one row of a view to metres into `out`: a valid depth (finite, > 0) as it
+/// is, any other as `invalid`. Returns the row's valid count. Branch-free (& not &&), so it vectorizes.
+template <typename Scalar, typename T>
+BINPICK_SIMD_INLINE std::size_t decode_row(const T* __restrict row, int w, Scalar scale, Scalar invalid,
+                                           Scalar* __restrict out) {
+  const Scalar inf = std::numeric_limits<Scalar>::infinity();
+  std::size_t valid = 0;
+  for (int u = 0; u < w; ++u) {
+    const Scalar z = Scalar(row[u]) * scale;
+    const bool ok = (z > Scalar(0)) & (z < inf);
+    out[u] = ok ? z : invalid;
+    valid += ok;
+  }
+  return valid;
+}
+
 /// The pinhole-target case of reproject_rows with packs of `Bytes` (inlined into simd_call's choice).
 template <typename Scalar, typename T, int Bytes>
 BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scalar>& source, const RayTable<Scalar>& rays,
@@ -67,7 +83,6 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
   using Mask = decltype(V() < V());  // signed integer lanes as wide as Scalar
   using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
   const Index none = Index(std::size_t(tw) * std::size_t(th));
-  const Scalar inf = std::numeric_limits<Scalar>::infinity();
   const int wpad = (w + P::size - 1) / P::size * P::size;
   std::vector<Index> index(static_cast<std::size_t>(wpad));
   std::vector<Scalar> depth(static_cast<std::size_t>(wpad)), zrow(static_cast<std::size_t>(wpad), Scalar(0));
@@ -79,15 +94,7 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
   const V vumax = P::splat(umax), vvmax = P::splat(vmax), vmhalf = P::splat(Scalar(-0.5));
   const V vtw1 = P::splat(Scalar(tw - 1)), vth1 = P::splat(Scalar(th - 1));
   for (int v = row_begin; v < row_end; ++v) {
-    const T* __restrict row = source.template row<T>(v);
-    std::size_t row_valid = 0;
-    for (int u = 0; u < w; ++u) {  // decode the row (invalid -> 0)
-      const Scalar z = Scalar(row[u]) * scale;
-      const bool ok = (z > Scalar(0)) & (z < inf);
-      zrow[std::size_t(u)] = ok ? z : Scalar(0);
-      row_valid += ok;
-    }
-    valid += row_valid;
+    valid += decode_row(source.template row<T>(v), w, scale, Scalar(0), zrow.data());
     const Scalar* rx = rays.separable ? rays.x.data() : rays.x.data() + std::size_t(v) * w;
     const Scalar* ry = rays.separable ? nullptr : rays.y.data() + std::size_t(v) * w;
     const V ry_row = P::splat(rays.separable ? rays.y[std::size_t(v)] : Scalar(0));

@@ -248,7 +248,7 @@ void vote(const std::vector<const Scalar*>& planes, int width, int height, const
   if (votes) {
     votes->width = width;
     votes->height = height;
-    votes->votes.assign(std::size_t(width) * std::size_t(height), 0);
+    votes->votes.resize(std::size_t(width) * std::size_t(height));  // the vote writes every pixel's count
     v = votes->votes.data();
   }
   detail::vote_pixels(planes.data(), int(planes.size()), 0, std::size_t(width) * std::size_t(height), settings.delta,
