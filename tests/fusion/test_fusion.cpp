@@ -50,12 +50,6 @@ bool smooth(const DepthImage<Scalar>& truth, int u, int v) {
   return lo > 0 && hi - lo < Scalar(0.004);
 }
 
-// Caps the SIMD level for a scope.
-struct SimdCap {
-  explicit SimdCap(SimdLevel level) { set_max_simd_level(level); }
-  ~SimdCap() { set_max_simd_level(SimdLevel::avx2); }
-};
-
 // Alg. 1 written naively: per pixel a growable candidate list, each depth compared with every
 // candidate (nearest one within delta wins), depths taken in the given order. The most votes win;
 // ties go to a candidate that took a depth equal to `reference` (the reference view's), else to the
@@ -297,7 +291,7 @@ RC_GTEST_PROP(Voting, MatchesNaiveReference, ()) {
   std::vector<const double*> ptrs;
   for (const auto& p : planes) ptrs.push_back(p.data());
   for (const SimdLevel level : available_simd_levels()) {
-  const SimdCap cap(level);
+  const test::SimdCap cap(level);
   std::vector<double> out(std::size_t(w * h));
   VoteMap votes;
   vote<double>(ptrs, w, h, {delta, min_votes, reference_first}, out.data(), &votes);
@@ -399,7 +393,7 @@ TEST(Simd, AVX2KernelsMatchTheBaseline) {
   std::vector<DepthImage<float>> reprojected;
   std::vector<FusionResult<float>> fused;
   for (const SimdLevel level : levels) {
-    const SimdCap cap(level);
+    const test::SimdCap cap(level);
     ASSERT_EQ(simd_level(), level);
     reprojected.push_back(reproject(imgs[1].view(), cam, Isometry3f(relative_pose(poses[0], poses[1]).cast<float>()), cam));
     fused.push_back(fuse(views_of(imgs), cast_poses<float>(poses), cam, s));

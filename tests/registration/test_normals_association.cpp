@@ -267,3 +267,71 @@ TEST(ProjectiveAssociation, FindsThePixelAndRespectsTheDistance) {
   EXPECT_GE(partners[3], 0);
   EXPECT_NEAR((target.target_point(partners[3]) - q[3]).norm(), 0.003, 1e-3);
 }
+
+namespace {
+
+// project_queries() + the rest of the single-pixel rule (valid target point, a normal, within the
+// distance) gives partner() for every query, at every SIMD level: random queries near the surface,
+// far from it, behind the camera, outside the image, on the pixel borders, and not finite.
+template <typename Scalar>
+void check_projected_queries_match_partner() {
+  const auto cam = test_camera<Scalar>();
+  const AnalyticScene scene = random_scene();
+  DepthImage<Scalar> depth = scene.render(cam, Eigen::Isometry3d::Identity());
+  for (Scalar& d : depth.storage())  // holes
+    if (*rc::gen::inRange(0, 10) == 0) d = Scalar(0);
+  const auto target = make_projective_target(depth.view(), cam);
+  RC_ASSERT(target.pixel_partner());
+  const Scalar max_distance = Scalar(uniform(0.001, 0.02));
+  const int count = *rc::gen::inRange(1, 300);
+  std::vector<Scalar> x, y, z;
+  const Scalar nan = std::numeric_limits<Scalar>::quiet_NaN(), inf = std::numeric_limits<Scalar>::infinity();
+  for (int i = 0; i < count; ++i) {
+    const int kind = *rc::gen::inRange(0, 8);
+    Scalar u = Scalar(uniform(-3, cam.width() + 2)), v = Scalar(uniform(-3, cam.height() + 2));
+    if (kind == 1) u = Scalar(-0.5);  // pixel borders
+    if (kind == 2) u = Scalar(cam.width()) - Scalar(0.5);
+    if (kind == 3) v = Scalar(*rc::gen::inRange(0, cam.height())) + Scalar(0.5);
+    Scalar zz = Scalar(uniform(0.2, 0.6));
+    const int iu = int(std::lround(double(u))), iv = int(std::lround(double(v)));
+    if (kind == 4 && iu >= 0 && iv >= 0 && iu < cam.width() && iv < cam.height() && depth.at(iu, iv) > 0)
+      zz = depth.at(iu, iv) + Scalar(uniform(-0.01, 0.01));  // near the surface
+    Vector3<Scalar> q = cam.backproject(u, v, zz);
+    if (kind == 5) q.z() = -q.z();  // behind
+    if (kind == 6) q(*rc::gen::inRange(0, 3)) = *rc::gen::inRange(0, 2) ? nan : inf;
+    if (kind == 7) q.z() = Scalar(0);
+    x.push_back(q.x());
+    y.push_back(q.y());
+    z.push_back(q.z());
+  }
+  for (const SimdLevel level : available_simd_levels()) {
+    const SimdCap cap(level);
+    std::vector<std::ptrdiff_t> index;
+    detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+      constexpr int L = detail::Pack<Scalar, decltype(bytes)::value>::size;
+      const int padded = (count + L - 1) / L * L;
+      std::vector<Scalar> px(x), py(y), pz(z);
+      px.resize(std::size_t(padded));
+      py.resize(std::size_t(padded));
+      pz.resize(std::size_t(padded));
+      index.assign(std::size_t(padded), 0);
+      target.template project_queries<decltype(bytes)::value>(px.data(), py.data(), pz.data(), padded, index.data());
+    });
+    for (int i = 0; i < count; ++i) {
+      const Vector3<Scalar> q(x[std::size_t(i)], y[std::size_t(i)], z[std::size_t(i)]);
+      const std::ptrdiff_t j = index[std::size_t(i)];
+      const auto px = cam.project(q);  // the pixel partner() rounds to
+      const int u0 = px ? int(px->x() + Scalar(0.5)) : -1, v0 = px ? int(px->y() + Scalar(0.5)) : -1;
+      const bool inside = px && u0 < cam.width() && v0 < cam.height();
+      RC_ASSERT(j == (inside ? std::ptrdiff_t(v0) * cam.width() + u0 : std::ptrdiff_t(-1)));
+      const bool rule = j >= 0 && target.target_point(j).z() > 0 && target.target_normal(j).squaredNorm() > 0 &&
+                        (target.target_point(j) - q).squaredNorm() <= max_distance * max_distance;
+      RC_ASSERT(target.partner(q, max_distance) == (rule ? j : std::ptrdiff_t(-1)));
+    }
+  }
+}
+
+}  // namespace
+
+RC_GTEST_PROP(ProjectiveAssociation, ProjectedQueriesMatchPartnerDouble, ()) { check_projected_queries_match_partner<double>(); }
+RC_GTEST_PROP(ProjectiveAssociation, ProjectedQueriesMatchPartnerFloat, ()) { check_projected_queries_match_partner<float>(); }

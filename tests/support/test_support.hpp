@@ -32,4 +32,13 @@ Isometry3<Scalar> random_pose(double max_angle, double max_translation) {
 
 inline std::string data_dir() { return BINPICK_DATA_DIR; }
 
+/// Caps the SIMD level (core/simd_level.hpp) for a scope: kernels with a run-time choice are tested
+/// at every level of available_simd_levels().
+struct SimdCap {
+  explicit SimdCap(SimdLevel level) { set_max_simd_level(level); }
+  ~SimdCap() { set_max_simd_level(SimdLevel::avx2); }
+  SimdCap(const SimdCap&) = delete;
+  SimdCap& operator=(const SimdCap&) = delete;
+};
+
 }  // namespace binpick::test

@@ -24,10 +24,18 @@
 ///   // point-to-plane ICP moves, associates and sums each point in one pass, without per-iteration
 ///   // arrays (both shipped strategies have it; their associate() is made of it).
 ///   std::ptrdiff_t partner(const Eigen::Matrix<Scalar, 3, 1>& query, Scalar max_distance) const;
+///   // Optional, projective (ProjectiveAssociation has them): when pixel_partner() is true, partner(q)
+///   // is the target point at the index project_queries() gives q, if that point is valid (z > 0),
+///   // has a normal (when the target has normals) and lies within max_distance. ICP's point-to-plane
+///   // pass then projects a block of queries in SIMD packs of `Bytes` (core/detail/simd.hpp) and
+///   // applies the rest of the rule itself on the gathered partners.
+///   bool pixel_partner() const;
+///   template <int Bytes>  // count: a multiple of Pack<Scalar, Bytes>::size; index: -1 = no pixel
+///   void project_queries(const Scalar* x, const Scalar* y, const Scalar* z, int count, std::ptrdiff_t* index) const;
 /// };
 /// \endcode
 /// `binpick::is_association<T>` checks the required members at compile time, `has_point_partner<T>`
-/// the optional one.
+/// and `has_pixel_partner<T>` the optional ones.
 
 #include <cstddef>
 #include <type_traits>
@@ -58,6 +66,15 @@ template <typename T>
 struct has_point_partner<T, std::void_t<decltype(std::ptrdiff_t(std::declval<const T&>().partner(
                                 std::declval<const Eigen::Matrix<typename T::Scalar, 3, 1>&>(), typename T::Scalar())))>>
     : std::true_type {};
+
+template <typename T, typename = void>
+struct has_pixel_partner : std::false_type {};
+template <typename T>
+struct has_pixel_partner<T, std::void_t<decltype(bool(std::declval<const T&>().pixel_partner())),
+                                        decltype(std::declval<const T&>().template project_queries<16>(
+                                            std::declval<const typename T::Scalar*>(), std::declval<const typename T::Scalar*>(),
+                                            std::declval<const typename T::Scalar*>(), int(),
+                                            std::declval<std::ptrdiff_t*>()))>> : std::true_type {};
 
 namespace registration_detail {
 /// associate() of a strategy that has partner(): every query on its own, `num_threads` threads.

@@ -150,56 +150,127 @@ struct PlaneBlockSums {
   std::size_t count = 0;
 };
 
-/// The kept pairs of one block as structure-of-arrays rows (J_i, r_i, w_i), summed lane-wise: each
-/// lane of a SIMD pack accumulates every L-th pair, and the lanes are added at the end (a fixed order,
-/// so the sums stay deterministic).
+/// One block of source points and their partners as structure-of-arrays rows, padded to the widest
+/// pack: the source point p and normal ns (moved into the target frame in place, q = R p + t and
+/// R ns), the partner index and the partner's point y and normal nt (zero normal = no partner).
 template <typename Scalar>
-struct PlaneBlock {
-  using P = detail::Pack<Scalar>;
-  static constexpr int kRows = 8;  // J (6), r, w
-  alignas(64) Scalar row[kRows][kPlaneBlock + P::size];
-
-  void set(int i, Scalar m0, Scalar m1, Scalar m2, Scalar n0, Scalar n1, Scalar n2, Scalar r, Scalar w) {
-    row[0][i] = m0; row[1][i] = m1; row[2][i] = m2;
-    row[3][i] = n0; row[4][i] = n1; row[5][i] = n2;
-    row[6][i] = r;  row[7][i] = w;
-  }
-
-  /// Σ w J Jᵀ (upper triangle), Σ w r J and Σ r² over the first `m` rows.
-  PlaneBlockSums<Scalar> sums(int m) {
-    using V = typename P::type;
-    constexpr int L = P::size;
-    const int padded = (m + L - 1) / L * L;
-    for (int k = 0; k < kRows; ++k)
-      for (int i = m; i < padded; ++i) row[k][i] = Scalar(0);  // zero weight and residual: no effect
-    V h[21], g[6], sq;
-    for (V& v : h) v = P::splat(Scalar(0));
-    for (V& v : g) v = P::splat(Scalar(0));
-    sq = P::splat(Scalar(0));
-    for (int i = 0; i < padded; i += L) {
-      const V j0 = P::load(row[0] + i), j1 = P::load(row[1] + i), j2 = P::load(row[2] + i);
-      const V j3 = P::load(row[3] + i), j4 = P::load(row[4] + i), j5 = P::load(row[5] + i);
-      const V r = P::load(row[6] + i), w = P::load(row[7] + i);
-      const V w0 = w * j0, w1 = w * j1, w2 = w * j2, w3 = w * j3, w4 = w * j4, w5 = w * j5;
-      h[0] += w0 * j0; h[1] += w0 * j1; h[2] += w0 * j2; h[3] += w0 * j3; h[4] += w0 * j4; h[5] += w0 * j5;
-      h[6] += w1 * j1; h[7] += w1 * j2; h[8] += w1 * j3; h[9] += w1 * j4; h[10] += w1 * j5;
-      h[11] += w2 * j2; h[12] += w2 * j3; h[13] += w2 * j4; h[14] += w2 * j5;
-      h[15] += w3 * j3; h[16] += w3 * j4; h[17] += w3 * j5;
-      h[18] += w4 * j4; h[19] += w4 * j5;
-      h[20] += w5 * j5;
-      g[0] += w0 * r; g[1] += w1 * r; g[2] += w2 * r; g[3] += w3 * r; g[4] += w4 * r; g[5] += w5 * r;
-      sq += r * r;
-    }
-    PlaneBlockSums<Scalar> out;
-    for (int l = 0; l < L; ++l) {
-      for (int k = 0; k < 21; ++k) out.h[k] += h[k][l];
-      for (int k = 0; k < 6; ++k) out.g[k] += g[k][l];
-      out.sum_sq += sq[l];
-    }
-    out.count = std::size_t(m);
-    return out;
-  }
+struct PairBlock {
+  static constexpr int kSize = int(kPlaneBlock) + 32 / int(sizeof(Scalar));
+  alignas(64) Scalar p[3][kSize];
+  alignas(64) Scalar ns[3][kSize];
+  alignas(64) Scalar y[3][kSize];
+  alignas(64) Scalar nt[3][kSize];
+  std::ptrdiff_t partner[kSize];
 };
+
+/// What the vectorized point-to-plane pass needs of the iterate and the settings.
+template <typename Scalar>
+struct PlaneParams {
+  Scalar R[3][3], t[3];
+  Scalar c[3];              ///< centroid of the moved source (the rotation's centre)
+  bool check_normals;       ///< reject pairs whose normals differ by more than acos(cos_normal)
+  Scalar cos_normal;
+  Scalar max_distance;
+  bool check_partner;       ///< pixel partners: test here that y is valid and within max_distance
+  RobustKernel kernel;
+  Scalar k;
+};
+
+BINPICK_SIMD_BEGIN
+
+/// q = R p + t and R ns in place over the first `padded` rows (a multiple of the pack size).
+template <typename Scalar, int Bytes>
+BINPICK_SIMD_INLINE void move_rows(PairBlock<Scalar>& b, int padded, const PlaneParams<Scalar>& prm) {
+  using P = detail::Pack<Scalar, Bytes>;
+  using V = typename P::type;
+  V R[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R[r][c] = P::splat(prm.R[r][c]);
+  const V t0 = P::splat(prm.t[0]), t1 = P::splat(prm.t[1]), t2 = P::splat(prm.t[2]);
+  for (int i = 0; i < padded; i += P::size) {
+    const V x = P::load(b.p[0] + i), y = P::load(b.p[1] + i), z = P::load(b.p[2] + i);
+    P::store(b.p[0] + i, R[0][0] * x + R[0][1] * y + R[0][2] * z + t0);
+    P::store(b.p[1] + i, R[1][0] * x + R[1][1] * y + R[1][2] * z + t1);
+    P::store(b.p[2] + i, R[2][0] * x + R[2][1] * y + R[2][2] * z + t2);
+    if (!prm.check_normals) continue;
+    const V nx = P::load(b.ns[0] + i), ny = P::load(b.ns[1] + i), nz = P::load(b.ns[2] + i);
+    P::store(b.ns[0] + i, R[0][0] * nx + R[0][1] * ny + R[0][2] * nz);
+    P::store(b.ns[1] + i, R[1][0] * nx + R[1][1] * ny + R[1][2] * nz);
+    P::store(b.ns[2] + i, R[2][0] * nx + R[2][1] * ny + R[2][2] * nz);
+  }
+}
+
+/// Σ w J Jᵀ (upper triangle), Σ w r J, Σ r² and the count of the kept pairs among the first `padded`
+/// rows of a moved block (file comment, step 3). Every rule of pairing is a lane mask here: a
+/// rejected pair contributes zeros, so no branch depends on the data.
+template <typename Scalar, int Bytes>
+BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b, int padded,
+                                                      const PlaneParams<Scalar>& prm) {
+  using P = detail::Pack<Scalar, Bytes>;
+  using V = typename P::type;
+  using Mask = typename P::mask;
+  constexpr int L = P::size;
+  const V zero = P::splat(Scalar(0)), one = P::splat(Scalar(1)), half = P::splat(Scalar(0.5));
+  const V cos_n = P::splat(prm.cos_normal), max_d = P::splat(prm.max_distance);
+  const V max_d2 = max_d * max_d, k = P::splat(prm.k);
+  const V c0 = P::splat(prm.c[0]), c1 = P::splat(prm.c[1]), c2 = P::splat(prm.c[2]);
+  V h[21], g[6], sq = zero, count = zero;
+  for (V& v : h) v = zero;
+  for (V& v : g) v = zero;
+  for (int i = 0; i < padded; i += L) {
+    const V qx = P::load(b.p[0] + i), qy = P::load(b.p[1] + i), qz = P::load(b.p[2] + i);
+    V nx = P::load(b.nt[0] + i), ny = P::load(b.nt[1] + i), nz = P::load(b.nt[2] + i);
+    const V ex = qx - P::load(b.y[0] + i), ey = qy - P::load(b.y[1] + i), ez = qz - P::load(b.y[2] + i);
+    Mask ok = nx * nx + ny * ny + nz * nz >= half;  // a partner with a known normal
+    if (prm.check_normals)
+      ok &= P::load(b.ns[0] + i) * nx + P::load(b.ns[1] + i) * ny + P::load(b.ns[2] + i) * nz >= cos_n;
+    if (prm.check_partner) ok &= (P::load(b.y[2] + i) > zero) & (ex * ex + ey * ey + ez * ez <= max_d2);
+    V r = nx * ex + ny * ey + nz * ez;
+    const V a = P::select(r < zero, -r, r);
+    ok &= a <= max_d;
+    // Zeros in the rejected lanes (their partner may be missing, or hold NaN).
+    r = P::select(ok, r, zero);
+    nx = P::select(ok, nx, zero);
+    ny = P::select(ok, ny, zero);
+    nz = P::select(ok, nz, zero);
+    V w;
+    switch (prm.kernel) {
+      case RobustKernel::huber: w = P::select(a <= k, one, k / P::select(a > zero, a, one)); break;
+      case RobustKernel::tukey: {
+        const V t = one - (a / k) * (a / k);
+        w = P::select(a < k, t * t, zero);
+        break;
+      }
+      default: w = one;
+    }
+    w = P::select(ok, w, zero);
+    count += P::select(ok, one, zero);
+    const V dx = qx - c0, dy = qy - c1, dz = qz - c2;
+    const V j0 = dy * nz - dz * ny, j1 = dz * nx - dx * nz, j2 = dx * ny - dy * nx;
+    const V j3 = nx, j4 = ny, j5 = nz;
+    const V w0 = w * j0, w1 = w * j1, w2 = w * j2, w3 = w * j3, w4 = w * j4, w5 = w * j5;
+    h[0] += w0 * j0; h[1] += w0 * j1; h[2] += w0 * j2; h[3] += w0 * j3; h[4] += w0 * j4; h[5] += w0 * j5;
+    h[6] += w1 * j1; h[7] += w1 * j2; h[8] += w1 * j3; h[9] += w1 * j4; h[10] += w1 * j5;
+    h[11] += w2 * j2; h[12] += w2 * j3; h[13] += w2 * j4; h[14] += w2 * j5;
+    h[15] += w3 * j3; h[16] += w3 * j4; h[17] += w3 * j5;
+    h[18] += w4 * j4; h[19] += w4 * j5;
+    h[20] += w5 * j5;
+    g[0] += w0 * r; g[1] += w1 * r; g[2] += w2 * r; g[3] += w3 * r; g[4] += w4 * r; g[5] += w5 * r;
+    sq += r * r;
+  }
+  PlaneBlockSums<Scalar> out;
+  Scalar kept = Scalar(0);
+  for (int l = 0; l < L; ++l) {  // lanes in a fixed order: deterministic
+    for (int q = 0; q < 21; ++q) out.h[q] += h[q][l];
+    for (int q = 0; q < 6; ++q) out.g[q] += g[q][l];
+    out.sum_sq += sq[l];
+    kept += count[l];
+  }
+  out.count = std::size_t(kept);
+  return out;
+}
+
+BINPICK_SIMD_END
 
 struct PlaneAccumulator {
   Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
@@ -332,25 +403,34 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   const bool use_normals = source.has_normals();
   // A point is used when finite and, with source normals, when it has one (a point without a normal,
   // likely on an edge, could never pair: see compatible() below).
-  const auto usable = [&](std::size_t i) {
-    if (!source_points[i].allFinite()) return false;
-    if (!use_normals) return true;
-    const Vector3<Scalar>& nrm = source.normals[i];
-    return nrm.allFinite() && nrm.squaredNorm() >= Scalar(0.5);
-  };
   // The indices of the usable points among every stride-th one, found once: 4 bytes a point instead
   // of a copy of points and normals (24 bytes), whose fresh pages cost more than the arithmetic.
+  // Branch-free (an index is written for every point, kept or not), the centroid summed in Scalar
+  // over blocks and in double across them.
   require(source_points.size() <= std::size_t(std::numeric_limits<std::uint32_t>::max()), "source",
           "more than 2^32 - 1 points");
-  const std::size_t stride = std::size_t(settings.stride);
-  std::vector<std::uint32_t> kept;
-  kept.reserve((source_points.size() + stride - 1) / stride);
+  const std::size_t stride = std::size_t(settings.stride), total = source_points.size();
+  std::vector<std::uint32_t> kept((total + stride - 1) / stride);
+  std::size_t kept_count = 0;
   Eigen::Vector3d centroid_src = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < source_points.size(); i += stride) {
-    if (!usable(i)) continue;
-    kept.push_back(std::uint32_t(i));
-    centroid_src += source_points[i].template cast<double>();
+  const Scalar finite_max = std::numeric_limits<Scalar>::max();
+  for (std::size_t i = 0; i < total;) {
+    Scalar sum[3] = {Scalar(0), Scalar(0), Scalar(0)};
+    for (std::ptrdiff_t q = 0; q < rd::kPlaneBlock && i < total; ++q, i += stride) {
+      const Scalar* p = source_points[i].data();
+      bool ok = (std::abs(p[0]) <= finite_max) & (std::abs(p[1]) <= finite_max) & (std::abs(p[2]) <= finite_max);
+      if (use_normals) {  // with a normal (allFinite() and unit: the norm test fails for NaN and inf)
+        const Scalar* nrm = source.normals[i].data();
+        ok &= nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2] >= Scalar(0.5) &&
+              (std::abs(nrm[0]) <= finite_max) & (std::abs(nrm[1]) <= finite_max) & (std::abs(nrm[2]) <= finite_max);
+      }
+      kept[kept_count] = std::uint32_t(i);
+      kept_count += ok;
+      for (int d = 0; d < 3; ++d) sum[d] += ok ? p[d] : Scalar(0);
+    }
+    centroid_src += Eigen::Vector3d(double(sum[0]), double(sum[1]), double(sum[2]));
   }
+  kept.resize(kept_count);
   const auto src = [&](std::ptrdiff_t s) -> const Vector3<Scalar>& { return source_points[kept[std::size_t(s)]]; };
   const auto src_normal = [&](std::ptrdiff_t s) -> const Scalar* {
     return use_normals ? source.normals[kept[std::size_t(s)]].data() : nullptr;
@@ -395,51 +475,78 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
     const Eigen::Matrix<Scalar, 3, 3> Rs = T.linear().cast<Scalar>();
     if (plane) {
       // The hot loop in Scalar (see kPlaneBlock); r_i and J_i as in the file comment, step 3.
-      const Vector3<Scalar> cs = c.cast<Scalar>();
-      const Scalar max_ds = Scalar(max_d), ks = Scalar(k);
-      // Appends the pair (moved source point q with normal ns, target j) to the block's rows unless
-      // rejected (point-to-plane needs the target normal). Written on components: Eigen's fixed 3-vector
-      // expressions cost several times more here.
-      const auto add_pair = [&](rd::PlaneBlock<Scalar>& blk, int& m, const Scalar* q, const Scalar* ns,
-                                std::ptrdiff_t j) {
-        const Scalar* nt = association.target_normal(j).data();
-        const Scalar nx = nt[0], ny = nt[1], nz = nt[2];
-        if (nx * nx + ny * ny + nz * nz < Scalar(0.5)) return;  // unknown normal
-        if (check_normals && !rd::normals_agree(Rs, ns, nt, cos_normal)) return;  // compatible()'s rule
-        const Scalar* y = association.target_point(j).data();
-        const Scalar r = nx * (q[0] - y[0]) + ny * (q[1] - y[1]) + nz * (q[2] - y[2]);
-        if (!(std::abs(r) <= max_ds)) return;
-        const Scalar dx = q[0] - cs.x(), dy = q[1] - cs.y(), dz = q[2] - cs.z();
-        blk.set(m++, dy * nz - dz * ny, dz * nx - dx * nz, dx * ny - dy * nx, nx, ny, nz, r,
-                rd::robust_weight(settings.kernel, r, ks));
-      };
-      // Pass 1 (scalar: lookups and rejections) gathers the kept pairs of a block into
-      // structure-of-arrays rows; pass 2 sums their products lane-wise in SIMD packs.
-      const auto block_sums = [&](rd::PlaneAccumulator& a, std::ptrdiff_t b) {
-        rd::PlaneBlock<Scalar> blk;
-        int m = 0;
-        if constexpr (pointwise) {  // fused: blocks of the strided source
-          // Lookups first, in a loop of their own, so the target reads of many points overlap
-          // (one loop doing lookups and sums waited on each target cache miss in turn).
-          const std::ptrdiff_t first = b * rd::kPlaneBlock, count = std::min(n, first + rd::kPlaneBlock) - first;
-          Vector3<Scalar> q[rd::kPlaneBlock];
-          std::ptrdiff_t partner[rd::kPlaneBlock];
-          for (std::ptrdiff_t s = 0; s < count; ++s) {
-            q[s].noalias() = Rm * src(first + s) + tm;
-            partner[s] = association.partner(q[s], settings.max_correspondence_distance);
-          }
-          for (std::ptrdiff_t s = 0; s < count; ++s)
-            if (partner[s] >= 0)
-              add_pair(blk, m, q[s].data(), src_normal(first + s), partner[s]);
-        } else {  // blocks of the gathered points and their batch partners
-          const std::ptrdiff_t end = std::min(n, (b + 1) * rd::kPlaneBlock);
-          for (std::ptrdiff_t i = b * rd::kPlaneBlock; i < end; ++i) {
-            const std::ptrdiff_t j = partners[std::size_t(i)];
-            if (j >= 0)
-              add_pair(blk, m, moved[std::size_t(i)].data(), src_normal(i), j);
-          }
+      rd::PlaneParams<Scalar> prm;
+      for (int r = 0; r < 3; ++r) {
+        for (int col = 0; col < 3; ++col) prm.R[r][col] = Rm(r, col);
+        prm.t[r] = tm(r);
+        prm.c[r] = Scalar(c(r));
+      }
+      prm.check_normals = check_normals;
+      prm.cos_normal = cos_normal;
+      prm.max_distance = settings.max_correspondence_distance;
+      prm.kernel = settings.kernel;
+      prm.k = settings.kernel_scale;
+      // Pixel partners: the association projects a pack of points at a time and its remaining tests
+      // (valid partner within max_distance) are lane masks of the sums (correspondence.hpp).
+      bool pixels = false;
+      if constexpr (has_pixel_partner<Association>::value) pixels = association.pixel_partner();
+      prm.check_partner = pixels;
+      // A block: gather the source rows (scalar), move them (SIMD), find partners (SIMD projection, or
+      // a scalar call per point), gather the partners' rows (scalar), and sum (SIMD, file comment).
+      const auto block_sums = [&](rd::PlaneAccumulator& acc, std::ptrdiff_t b) {
+        rd::PairBlock<Scalar> blk;
+        const std::ptrdiff_t first = b * rd::kPlaneBlock;
+        const int count = int(std::min(n, first + rd::kPlaneBlock) - first);
+        for (int s = 0; s < count; ++s) {
+          const Scalar* p = src(first + s).data();
+          blk.p[0][s] = p[0];
+          blk.p[1][s] = p[1];
+          blk.p[2][s] = p[2];
         }
-        a.add(blk.sums(m));
+        if (check_normals)
+          for (int s = 0; s < count; ++s) {
+            const Scalar* nrm = src_normal(first + s);
+            blk.ns[0][s] = nrm[0];
+            blk.ns[1][s] = nrm[1];
+            blk.ns[2][s] = nrm[2];
+          }
+        rd::PlaneBlockSums<Scalar> sums;
+        detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+          constexpr int Bytes = decltype(bytes)::value;
+          constexpr int L = detail::Pack<Scalar, Bytes>::size;
+          const int padded = (count + L - 1) / L * L;
+          for (int s = count; s < padded; ++s)  // padding: no partner
+            for (int d = 0; d < 3; ++d) blk.p[d][s] = blk.ns[d][s] = Scalar(0);
+          rd::move_rows<Scalar, Bytes>(blk, padded, prm);
+          if constexpr (has_pixel_partner<Association>::value) {
+            if (pixels) association.template project_queries<Bytes>(blk.p[0], blk.p[1], blk.p[2], padded, blk.partner);
+          }
+          if (!pixels) {
+            for (int s = 0; s < count; ++s) {
+              if constexpr (pointwise)
+                blk.partner[s] = association.partner(Vector3<Scalar>(blk.p[0][s], blk.p[1][s], blk.p[2][s]),
+                                                     settings.max_correspondence_distance);
+              else
+                blk.partner[s] = partners[std::size_t(first + s)];
+            }
+          }
+          for (int s = count; s < padded; ++s) blk.partner[s] = -1;
+          for (int s = 0; s < padded; ++s) {
+            const std::ptrdiff_t j = blk.partner[s];
+            if (j >= 0) {
+              const Scalar* y = association.target_point(j).data();
+              const Scalar* nt = association.target_normal(j).data();
+              for (int d = 0; d < 3; ++d) {
+                blk.y[d][s] = y[d];
+                blk.nt[d][s] = nt[d];
+              }
+            } else {
+              for (int d = 0; d < 3; ++d) blk.y[d][s] = blk.nt[d][s] = Scalar(0);
+            }
+          }
+          sums = rd::plane_sums<Scalar, Bytes>(blk, padded, prm);
+        });
+        acc.add(sums);
       };
       const std::ptrdiff_t blocks = (n + rd::kPlaneBlock - 1) / rd::kPlaneBlock;
       const rd::PlaneAccumulator acc = rd::parallel_reduce(

@@ -8,10 +8,13 @@
 
 #include <cmath>
 #include <cstddef>
+#include <limits>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "binpick/core/camera_model.hpp"
+#include "binpick/core/detail/simd.hpp"
 #include "binpick/core/errors.hpp"
 #include "binpick/registration/correspondence.hpp"
 #include "binpick/registration/detail/parallel.hpp"
@@ -60,6 +63,56 @@ class ProjectiveAssociation {
   void associate(const std::vector<Vector3<Scalar>>& queries, Scalar max_distance, int num_threads,
                  std::vector<std::ptrdiff_t>& partners) const {
     registration_detail::associate_by_partner(*this, queries, max_distance, num_threads, partners);
+  }
+
+  /// True when partner(q) is the single-pixel rule (window_radius 0): the target point at the pixel q
+  /// rounds to, if it is valid, has a normal (when the target has normals) and lies within
+  /// max_distance. ICP's vectorized point-to-plane pass then projects a block of queries with
+  /// project_queries() and applies the rest of the rule on the gathered partners itself
+  /// (correspondence.hpp, the optional projective members).
+  bool pixel_partner() const { return settings_.window_radius == 0; }
+
+  /// The target index (v * width + u) of the pixel each of `count` queries rounds to, or -1 when it
+  /// projects outside the image, is not finite or not in front (the camera's project() rule).
+  /// Queries as coordinate arrays; `count` a multiple of Pack<Scalar, Bytes>::size (detail/simd.hpp),
+  /// the pack width the caller runs at. A pinhole target projects a pack at a time, other models call
+  /// the camera per query.
+  template <int Bytes>
+  BINPICK_SIMD_INLINE void project_queries(const Scalar* x, const Scalar* y, const Scalar* z, int count,
+                                           std::ptrdiff_t* index) const {
+    const int w = target_.width, h = target_.height;
+    if constexpr (std::is_same<Camera, PinholeCamera<Scalar>>::value) {
+      BINPICK_SIMD_BEGIN
+      using P = detail::Pack<Scalar, Bytes>;
+      using V = typename P::type;
+      using Mask = typename P::mask;
+      using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
+      const V fx = P::splat(camera_.fx()), fy = P::splat(camera_.fy()), cx = P::splat(camera_.cx()),
+              cy = P::splat(camera_.cy());
+      const V zero = P::splat(Scalar(0)), half = P::splat(Scalar(0.5)), one = P::splat(Scalar(1));
+      const V inf = P::splat(std::numeric_limits<Scalar>::infinity());
+      const V umax = P::splat(Scalar(w) - Scalar(0.5)), vmax = P::splat(Scalar(h) - Scalar(0.5));
+      for (int i = 0; i < count; i += P::size) {
+        const V qx = P::load(x + i), qy = P::load(y + i), qz = P::load(z + i);
+        Mask ok = (qz > zero) & (qz < inf);
+        const V inv_z = one / P::select(ok, qz, one);
+        // project()'s arithmetic, operation for operation: the same pixel as partner().
+        const V u = fx * qx * inv_z + cx, v = fy * qy * inv_z + cy;
+        ok &= (u >= -half) & (v >= -half) & (u < umax) & (v < vmax);
+        const Mask iu = __builtin_convertvector(P::select(ok, u + half, zero), Mask);
+        const Mask iv = __builtin_convertvector(P::select(ok, v + half, zero), Mask);
+        ok &= (iu < Index(w)) & (iv < Index(h));
+        const Mask id = ok ? iv * Index(w) + iu : Mask() - Index(1);
+        for (int l = 0; l < P::size; ++l) index[i + l] = std::ptrdiff_t(id[l]);
+      }
+      BINPICK_SIMD_END
+    } else {
+      for (int i = 0; i < count; ++i) {
+        const auto px = camera_.project(Vector3<Scalar>(x[i], y[i], z[i]));
+        const int u0 = px ? int(px->x() + Scalar(0.5)) : -1, v0 = px ? int(px->y() + Scalar(0.5)) : -1;
+        index[i] = px && u0 >= 0 && v0 >= 0 && u0 < w && v0 < h ? std::ptrdiff_t(target_.index(u0, v0)) : -1;
+      }
+    }
   }
 
   /// The partner of one query (the optional point-wise member of the concept: ICP then transforms,
