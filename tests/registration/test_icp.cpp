@@ -378,15 +378,21 @@ void check_one_iteration_matches_naive(Assoc assoc) {
     const Vector3<Scalar> t = p.init.translation();
     std::vector<Vector3<Scalar>> q;
     std::vector<std::size_t> from;
+    // The rotation centre: the centroid of the usable points among every k-th one (icp.hpp).
+    const std::size_t k = (source.size() + rd::kCentroidPoints - 1) / rd::kCentroidPoints;
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    double in_centroid = 0;
     for (std::size_t i = 0; i < source.size(); ++i) {
       const Vector3<Scalar>& x = source.points[i];
       if (!x.allFinite() || (with_normals && !(source.normals[i].squaredNorm() >= Scalar(0.5)))) continue;
       q.push_back(R * x + t);
       from.push_back(i);
-      c += x.template cast<double>();
+      if (i % k == 0) {
+        c += x.template cast<double>();
+        ++in_centroid;
+      }
     }
-    c = T * (c / double(q.size()));
+    c = T * (c / in_centroid);
     Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
     std::size_t pairs = 0;

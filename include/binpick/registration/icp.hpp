@@ -9,8 +9,9 @@
 ///  1. q_i = T p_i for the source points (every `stride`-th one);
 ///  2. partners y_i (normals n_i) from the association, within `max_correspondence_distance`;
 ///  3. point-to-plane: residual r_i = n_iᵀ(q_i − y_i), Jacobian J_i = [((q_i − c) × n_i)ᵀ, n_iᵀ] for a
-///     left update about the centroid c of the moved source (which decouples rotation and
-///     translation), robust IRLS weight w(r_i); normal equations H δ = −g with H = Σ w J Jᵀ (6×6),
+///     left update about the centroid c of the moved source, or of every k-th point of a large one
+///     (a centre at the points decouples rotation and translation; which one changes the step only to
+///     second order), robust IRLS weight w(r_i); normal equations H δ = −g with H = Σ w J Jᵀ (6×6),
 ///     g = Σ w J r.  Point-to-point: weighted Kabsch/Umeyama (SVD of the cross-covariance).
 ///  4. T ← ΔT T; stop when ΔT rotates less than `rotation_epsilon` and moves the source centroid
 ///     less than `translation_epsilon`.
@@ -20,8 +21,9 @@
 /// eigen-directions whose eigenvalue is below `degeneracy_threshold` × the largest are unobservable
 /// (e.g. sliding on one plane) and the update is confined to the observable subspace, so those
 /// directions keep their initial value; the result then says `degenerate`.
-/// Point-to-plane sums are formed in the caller's scalar over blocks of 256 points (kept pairs gathered
-/// into structure-of-arrays rows, products summed lane-wise in SIMD packs) and added in double
+/// Point-to-plane sums are formed in the caller's scalar over blocks of 256 points (gathered into
+/// structure-of-arrays rows, moved, paired and summed lane-wise in SIMD packs, every rejection a lane
+/// mask; AVX2 chosen at run time, core/simd_level.hpp) and added in double
 /// (point-to-point sums in double), one accumulator per thread over fixed ranges of blocks, merged in
 /// order: deterministic for a fixed thread count. Numerical failure is a status, never an exception.
 
@@ -140,6 +142,9 @@ T robust_weight(RobustKernel kernel, T r, T k) {
 /// float-speed inner loops and double-accurate totals.
 constexpr std::ptrdiff_t kPlaneBlock = 256;
 
+/// Points the rotation centre of the fused point-to-plane pass is averaged from (icp_one_scale).
+constexpr std::size_t kCentroidPoints = 4096;
+
 /// The 21 upper-triangle terms of Σ w J Jᵀ (row-major), the 6 of Σ w r J, Σ r² and the count of one
 /// block, in Scalar.
 template <typename Scalar>
@@ -160,6 +165,7 @@ struct PairBlock {
   alignas(64) Scalar ns[3][kSize];
   alignas(64) Scalar y[3][kSize];
   alignas(64) Scalar nt[3][kSize];
+  alignas(64) Scalar use[kSize];  ///< 1 for a usable source point (finite, with a normal if normals are used), else 0
   std::ptrdiff_t partner[kSize];
 };
 
@@ -178,22 +184,42 @@ struct PlaneParams {
 
 BINPICK_SIMD_BEGIN
 
-/// q = R p + t and R ns in place over the first `padded` rows (a multiple of the pack size).
+/// Marks the usable source points of the first `padded` rows (a multiple of the pack size) in `use`
+/// (finite, and with a unit normal when normals are checked), zeroes the others, and moves them in
+/// place: q = R p + t and R ns.
 template <typename Scalar, int Bytes>
 BINPICK_SIMD_INLINE void move_rows(PairBlock<Scalar>& b, int padded, const PlaneParams<Scalar>& prm) {
   using P = detail::Pack<Scalar, Bytes>;
   using V = typename P::type;
+  using Mask = typename P::mask;
   V R[3][3];
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) R[r][c] = P::splat(prm.R[r][c]);
   const V t0 = P::splat(prm.t[0]), t1 = P::splat(prm.t[1]), t2 = P::splat(prm.t[2]);
+  const V zero = P::splat(Scalar(0)), one = P::splat(Scalar(1)), half = P::splat(Scalar(0.5));
+  const V big = P::splat(std::numeric_limits<Scalar>::max());
+  const auto finite = [&](const V& v) BINPICK_SIMD_INLINE_LAMBDA { return P::select(v < zero, -v, v) <= big; };
   for (int i = 0; i < padded; i += P::size) {
-    const V x = P::load(b.p[0] + i), y = P::load(b.p[1] + i), z = P::load(b.p[2] + i);
+    V x = P::load(b.p[0] + i), y = P::load(b.p[1] + i), z = P::load(b.p[2] + i);
+    Mask ok = finite(x) & finite(y) & finite(z);
+    V nx = zero, ny = zero, nz = zero;
+    if (prm.check_normals) {
+      nx = P::load(b.ns[0] + i);
+      ny = P::load(b.ns[1] + i);
+      nz = P::load(b.ns[2] + i);
+      ok &= (nx * nx + ny * ny + nz * nz >= half) & finite(nx) & finite(ny) & finite(nz);
+    }
+    x = P::select(ok, x, zero);
+    y = P::select(ok, y, zero);
+    z = P::select(ok, z, zero);
+    P::store(b.use + i, P::select(ok, one, zero));
     P::store(b.p[0] + i, R[0][0] * x + R[0][1] * y + R[0][2] * z + t0);
     P::store(b.p[1] + i, R[1][0] * x + R[1][1] * y + R[1][2] * z + t1);
     P::store(b.p[2] + i, R[2][0] * x + R[2][1] * y + R[2][2] * z + t2);
     if (!prm.check_normals) continue;
-    const V nx = P::load(b.ns[0] + i), ny = P::load(b.ns[1] + i), nz = P::load(b.ns[2] + i);
+    nx = P::select(ok, nx, zero);
+    ny = P::select(ok, ny, zero);
+    nz = P::select(ok, nz, zero);
     P::store(b.ns[0] + i, R[0][0] * nx + R[0][1] * ny + R[0][2] * nz);
     P::store(b.ns[1] + i, R[1][0] * nx + R[1][1] * ny + R[1][2] * nz);
     P::store(b.ns[2] + i, R[2][0] * nx + R[2][1] * ny + R[2][2] * nz);
@@ -221,7 +247,7 @@ BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b
     const V qx = P::load(b.p[0] + i), qy = P::load(b.p[1] + i), qz = P::load(b.p[2] + i);
     V nx = P::load(b.nt[0] + i), ny = P::load(b.nt[1] + i), nz = P::load(b.nt[2] + i);
     const V ex = qx - P::load(b.y[0] + i), ey = qy - P::load(b.y[1] + i), ez = qz - P::load(b.y[2] + i);
-    Mask ok = nx * nx + ny * ny + nz * nz >= half;  // a partner with a known normal
+    Mask ok = (P::load(b.use + i) > zero) & (nx * nx + ny * ny + nz * nz >= half);  // a partner with a known normal
     if (prm.check_normals)
       ok &= P::load(b.ns[0] + i) * nx + P::load(b.ns[1] + i) * ny + P::load(b.ns[2] + i) * nz >= cos_n;
     if (prm.check_partner) ok &= (P::load(b.y[2] + i) > zero) & (ex * ex + ey * ey + ez * ez <= max_d2);
@@ -401,47 +427,58 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   result.T_target_source = T_start;
 
   const bool use_normals = source.has_normals();
-  // A point is used when finite and, with source normals, when it has one (a point without a normal,
-  // likely on an edge, could never pair: see compatible() below).
-  // The indices of the usable points among every stride-th one, found once: 4 bytes a point instead
-  // of a copy of points and normals (24 bytes), whose fresh pages cost more than the arithmetic.
-  // Branch-free (an index is written for every point, kept or not), the centroid summed in Scalar
-  // over blocks and in double across them.
   require(source_points.size() <= std::size_t(std::numeric_limits<std::uint32_t>::max()), "source",
           "more than 2^32 - 1 points");
   const std::size_t stride = std::size_t(settings.stride), total = source_points.size();
-  std::vector<std::uint32_t> kept((total + stride - 1) / stride);
-  std::size_t kept_count = 0;
-  Eigen::Vector3d centroid_src = Eigen::Vector3d::Zero();
+  const std::size_t strided = (total + stride - 1) / stride;
+  // Point-to-plane over a point-wise association (correspondence.hpp) moves, associates and sums
+  // each block of the strided source in one pass, straight from the caller's arrays: no per-iteration
+  // arrays of source size, whose fresh pages cost more than the arithmetic, and no scan for usable
+  // points (that test is a lane mask of the pass). Otherwise the usable points are listed once and
+  // moved and associated in batches.
+  constexpr bool pointwise = has_point_partner<Association>::value;
+  const bool fused = plane && pointwise;
+  // A point is used when finite and, with source normals, when it has one (a point without a normal,
+  // likely on an edge, could never pair: see compatible() below).
   const Scalar finite_max = std::numeric_limits<Scalar>::max();
+  const auto usable = [&](std::size_t i) {
+    const Scalar* p = source_points[i].data();
+    bool ok = (std::abs(p[0]) <= finite_max) & (std::abs(p[1]) <= finite_max) & (std::abs(p[2]) <= finite_max);
+    if (use_normals) {  // a unit normal (the norm test fails for NaN, the bounds for inf)
+      const Scalar* nrm = source.normals[i].data();
+      ok &= (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2] >= Scalar(0.5)) & (std::abs(nrm[0]) <= finite_max) &
+            (std::abs(nrm[1]) <= finite_max) & (std::abs(nrm[2]) <= finite_max);
+    }
+    return ok;
+  };
+  // The batch path: the indices of the usable points among every stride-th one, found once (4 bytes a
+  // point instead of a copy of points and normals), branch-free. The centroid (the rotation centre c)
+  // sums every usable point of the batch path; the fused path sums those among every k-th strided
+  // point, k = ceil(strided / kCentroidPoints) (the step is the same to first order for any centre
+  // near the points), in Scalar over blocks and in double across them.
+  std::vector<std::uint32_t> kept(fused ? 0 : strided);
+  std::size_t used = 0;
+  Eigen::Vector3d centroid_src = Eigen::Vector3d::Zero();
+  const std::size_t centroid_step = fused ? stride * ((strided + kCentroidPoints - 1) / kCentroidPoints) : stride;
   for (std::size_t i = 0; i < total;) {
     Scalar sum[3] = {Scalar(0), Scalar(0), Scalar(0)};
-    for (std::ptrdiff_t q = 0; q < rd::kPlaneBlock && i < total; ++q, i += stride) {
-      const Scalar* p = source_points[i].data();
-      bool ok = (std::abs(p[0]) <= finite_max) & (std::abs(p[1]) <= finite_max) & (std::abs(p[2]) <= finite_max);
-      if (use_normals) {  // with a normal (allFinite() and unit: the norm test fails for NaN and inf)
-        const Scalar* nrm = source.normals[i].data();
-        ok &= nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2] >= Scalar(0.5) &&
-              (std::abs(nrm[0]) <= finite_max) & (std::abs(nrm[1]) <= finite_max) & (std::abs(nrm[2]) <= finite_max);
-      }
-      kept[kept_count] = std::uint32_t(i);
-      kept_count += ok;
-      for (int d = 0; d < 3; ++d) sum[d] += ok ? p[d] : Scalar(0);
+    for (std::ptrdiff_t q = 0; q < rd::kPlaneBlock && i < total; ++q, i += centroid_step) {
+      const bool ok = usable(i);
+      if (!fused) kept[used] = std::uint32_t(i);
+      used += ok;
+      for (int d = 0; d < 3; ++d) sum[d] += ok ? source_points[i](d) : Scalar(0);
     }
     centroid_src += Eigen::Vector3d(double(sum[0]), double(sum[1]), double(sum[2]));
   }
-  kept.resize(kept_count);
-  const auto src = [&](std::ptrdiff_t s) -> const Vector3<Scalar>& { return source_points[kept[std::size_t(s)]]; };
+  kept.resize(fused ? 0 : used);
+  if (!fused && used < min_corr) return result;
+  if (used > 0) centroid_src /= double(used);
+  // Source point s of the pass (of the strided source, or of the list).
+  const auto src_index = [&](std::ptrdiff_t s) { return fused ? std::size_t(s) * stride : std::size_t(kept[std::size_t(s)]); };
+  const auto src = [&](std::ptrdiff_t s) -> const Vector3<Scalar>& { return source_points[src_index(s)]; };
   const auto src_normal = [&](std::ptrdiff_t s) -> const Scalar* {
-    return use_normals ? source.normals[kept[std::size_t(s)]].data() : nullptr;
+    return use_normals ? source.normals[src_index(s)].data() : nullptr;
   };
-  if (kept.size() < min_corr) return result;
-  centroid_src /= double(kept.size());
-  // Point-to-plane over a point-wise association (correspondence.hpp) moves, associates and sums
-  // each block of points in one pass: no per-iteration arrays of source size, whose fresh pages cost
-  // more than the arithmetic. Otherwise the points are moved and associated in batches.
-  constexpr bool pointwise = has_point_partner<Association>::value;
-  const bool fused = plane && pointwise;
 
   const double max_d = double(settings.max_correspondence_distance), k = double(settings.kernel_scale);
   const double degeneracy = double(settings.degeneracy_threshold);
@@ -455,9 +492,9 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
     return nt.squaredNorm() < Scalar(0.5) || rd::normals_agree(R_ts, src_normal(i), nt.data(), cos_normal);
   };
   Eigen::Isometry3d T = T_start.template cast<double>();
-  std::vector<Vector3<Scalar>> moved(fused ? 0 : kept.size());
+  std::vector<Vector3<Scalar>> moved(kept.size());
   std::vector<std::ptrdiff_t> partners;
-  const std::ptrdiff_t n = std::ptrdiff_t(kept.size());
+  const std::ptrdiff_t n = std::ptrdiff_t(fused ? strided : kept.size());
   bool converged = false;
 
   for (int it = 1; it <= settings.max_iterations; ++it) {
@@ -518,14 +555,17 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
           for (int s = count; s < padded; ++s)  // padding: no partner
             for (int d = 0; d < 3; ++d) blk.p[d][s] = blk.ns[d][s] = Scalar(0);
           rd::move_rows<Scalar, Bytes>(blk, padded, prm);
+          for (int s = count; s < padded; ++s) blk.use[s] = Scalar(0);
           if constexpr (has_pixel_partner<Association>::value) {
             if (pixels) association.template project_queries<Bytes>(blk.p[0], blk.p[1], blk.p[2], padded, blk.partner);
           }
           if (!pixels) {
             for (int s = 0; s < count; ++s) {
               if constexpr (pointwise)
-                blk.partner[s] = association.partner(Vector3<Scalar>(blk.p[0][s], blk.p[1][s], blk.p[2][s]),
-                                                     settings.max_correspondence_distance);
+                blk.partner[s] = blk.use[s] > Scalar(0)
+                                     ? association.partner(Vector3<Scalar>(blk.p[0][s], blk.p[1][s], blk.p[2][s]),
+                                                           settings.max_correspondence_distance)
+                                     : -1;
               else
                 blk.partner[s] = partners[std::size_t(first + s)];
             }
