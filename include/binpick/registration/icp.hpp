@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <type_traits>
 #include <vector>
@@ -433,9 +434,9 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   const std::size_t strided = (total + stride - 1) / stride;
   // Point-to-plane over a point-wise association (correspondence.hpp) moves, associates and sums
   // each block of the strided source in one pass, straight from the caller's arrays: no per-iteration
-  // arrays of source size, whose fresh pages cost more than the arithmetic, and no scan for usable
-  // points (that test is a lane mask of the pass). Otherwise the usable points are listed once and
-  // moved and associated in batches.
+  // arrays of source size but the list of usable points, which its first iteration makes (that test
+  // is a lane mask of the pass: no separate scan of the source). Otherwise the usable points are
+  // listed first and moved and associated in batches.
   constexpr bool pointwise = has_point_partner<Association>::value;
   const bool fused = plane && pointwise;
   // A point is used when finite and, with source normals, when it has one (a point without a normal,
@@ -474,7 +475,12 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   if (!fused && used < min_corr) return result;
   if (used > 0) centroid_src /= double(used);
   // Source point s of the pass (of the strided source, or of the list).
-  const auto src_index = [&](std::ptrdiff_t s) { return fused ? std::size_t(s) * stride : std::size_t(kept[std::size_t(s)]); };
+  // The fused pass's first iteration walks the strided source and lists its usable points (per block,
+  // then packed in block order: deterministic), later iterations walk the list. Until listed, source
+  // point s of the pass is the s-th strided one.
+  bool listed = !fused;
+  std::vector<int> block_used;
+  const auto src_index = [&](std::ptrdiff_t s) { return listed ? std::size_t(kept[std::size_t(s)]) : std::size_t(s) * stride; };
   const auto src = [&](std::ptrdiff_t s) -> const Vector3<Scalar>& { return source_points[src_index(s)]; };
   const auto src_normal = [&](std::ptrdiff_t s) -> const Scalar* {
     return use_normals ? source.normals[src_index(s)].data() : nullptr;
@@ -494,7 +500,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   Eigen::Isometry3d T = T_start.template cast<double>();
   std::vector<Vector3<Scalar>> moved(kept.size());
   std::vector<std::ptrdiff_t> partners;
-  const std::ptrdiff_t n = std::ptrdiff_t(fused ? strided : kept.size());
+  std::ptrdiff_t n = std::ptrdiff_t(fused ? strided : kept.size());  // points of the pass
   bool converged = false;
 
   for (int it = 1; it <= settings.max_iterations; ++it) {
@@ -556,6 +562,14 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
             for (int d = 0; d < 3; ++d) blk.p[d][s] = blk.ns[d][s] = Scalar(0);
           rd::move_rows<Scalar, Bytes>(blk, padded, prm);
           for (int s = count; s < padded; ++s) blk.use[s] = Scalar(0);
+          if (!listed) {  // list this block's usable points in its own range of `kept`
+            int m = 0;
+            for (int s = 0; s < count; ++s) {
+              kept[std::size_t(first + m)] = std::uint32_t(std::size_t(first + s) * stride);
+              m += blk.use[s] > Scalar(0);
+            }
+            block_used[std::size_t(b)] = m;
+          }
           if constexpr (has_pixel_partner<Association>::value) {
             if (pixels) association.template project_queries<Bytes>(blk.p[0], blk.p[1], blk.p[2], padded, blk.partner);
           }
@@ -589,9 +603,24 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
         acc.add(sums);
       };
       const std::ptrdiff_t blocks = (n + rd::kPlaneBlock - 1) / rd::kPlaneBlock;
+      if (!listed) {
+        kept.resize(std::size_t(n));
+        block_used.assign(std::size_t(blocks), 0);
+      }
       const rd::PlaneAccumulator acc = rd::parallel_reduce(
           blocks, threads, rd::PlaneAccumulator{}, block_sums,
           [](rd::PlaneAccumulator& total, const rd::PlaneAccumulator& a) { total.merge(a); }, 1);
+      if (!listed) {  // pack the blocks' lists
+        std::size_t packed = 0;
+        for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+          const std::size_t m = std::size_t(block_used[std::size_t(b)]);
+          if (m > 0) std::memmove(kept.data() + packed, kept.data() + b * rd::kPlaneBlock, m * sizeof(std::uint32_t));
+          packed += m;
+        }
+        kept.resize(packed);
+        n = std::ptrdiff_t(packed);
+        listed = true;
+      }
       result.inliers = acc.count;
       result.rmse = acc.count ? Scalar(std::sqrt(acc.sum_sq / double(acc.count))) : Scalar(0);
       if (acc.count < min_corr) {
