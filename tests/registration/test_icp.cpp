@@ -246,12 +246,21 @@ void check_coarse_to_fine_ends_where_one_stage_ends() {
   staged.coarse_points = 500;  // the stride-2 source has 2000+ points: a coarse stage of every k-th
   const IcpResult<Scalar> a = register_views(p.source, p.target, p.init, Assoc::knn, one);
   const IcpResult<Scalar> b = register_views(p.source, p.target, p.init, Assoc::knn, staged);
-  RC_LOG() << to_string(a.status) << " " << a.iterations << " it / " << to_string(b.status) << " " << b.iterations << " it\n";
+  const auto [ta, ra] = pose_error<Scalar>(a.T_target_source, p.T_true.template cast<Scalar>());
+  const auto [tb, rb] = pose_error<Scalar>(b.T_target_source, p.T_true.template cast<Scalar>());
+  RC_LOG() << to_string(a.status) << " " << a.iterations << " it / " << to_string(b.status) << " " << b.iterations
+           << " it; from the truth " << ta * 1e3 << " mm " << ra / kDeg << " deg / " << tb * 1e3 << " mm " << rb / kDeg
+           << " deg\n";
   RC_ASSERT(b.status == IcpStatus::converged || b.status == IcpStatus::max_iterations);
   RC_ASSERT(b.iterations >= 2);  // at least one iteration per stage
+  // Coarse to fine is as accurate as one stage. The two converge from different poses, each to within
+  // its own accuracy of the truth, so they can differ by the sum: a generated pile had one stage
+  // 0.023 deg and coarse to fine 0.013 deg from the truth, 0.036 deg apart.
+  RC_ASSERT(tb < ta + 0.05e-3);
+  RC_ASSERT(rb < ra + 0.02 * kDeg);
   const auto [et, er] = pose_error<Scalar>(b.T_target_source, a.T_target_source);
   RC_ASSERT(et < 0.05e-3);
-  RC_ASSERT(er < 0.02 * kDeg);
+  RC_ASSERT(er < 0.05 * kDeg);
   const auto [tt, tr] = pose_error<Scalar>(b.T_target_source, p.T_true.template cast<Scalar>());
   RC_ASSERT(tt < 1e-3);
   RC_ASSERT(tr < 0.4 * kDeg);
