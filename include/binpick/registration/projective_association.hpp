@@ -107,11 +107,7 @@ class ProjectiveAssociation {
       }
       BINPICK_SIMD_END
     } else {
-      for (int i = 0; i < count; ++i) {
-        const auto px = camera_.project(Vector3<Scalar>(x[i], y[i], z[i]));
-        const int u0 = px ? int(px->x() + Scalar(0.5)) : -1, v0 = px ? int(px->y() + Scalar(0.5)) : -1;
-        index[i] = px && u0 >= 0 && v0 >= 0 && u0 < w && v0 < h ? std::ptrdiff_t(target_.index(u0, v0)) : -1;
-      }
+      for (int i = 0; i < count; ++i) index[i] = pixel_of(Vector3<Scalar>(x[i], y[i], z[i]));
     }
   }
 
@@ -128,8 +124,9 @@ class ProjectiveAssociation {
     const int u0 = int(px->x() + Scalar(0.5)), v0 = int(px->y() + Scalar(0.5));
     const bool need_normal = target_.has_normals();
     if (r == 0) {  // the default: one pixel, no window loop
-      if (u0 < 0 || v0 < 0 || u0 >= w || v0 >= h) return -1;
-      const std::size_t id = target_.index(u0, v0);
+      const std::ptrdiff_t pixel = pixel_of(u0, v0);
+      if (pixel < 0) return -1;
+      const std::size_t id = std::size_t(pixel);
       const Vector3<Scalar>& p = target_.points[id];
       if (!(p.z() > Scalar(0))) return -1;
       if (need_normal && target_.normals[id].squaredNorm() == Scalar(0)) return -1;
@@ -155,6 +152,16 @@ class ProjectiveAssociation {
   }
 
  private:
+  /// The index of pixel (u0, v0), or -1 outside the image.
+  std::ptrdiff_t pixel_of(int u0, int v0) const {
+    return u0 >= 0 && v0 >= 0 && u0 < target_.width && v0 < target_.height ? std::ptrdiff_t(target_.index(u0, v0)) : -1;
+  }
+  /// The index of the pixel q rounds to (the camera's project() rule), or -1.
+  std::ptrdiff_t pixel_of(const Vector3<Scalar>& q) const {
+    const auto px = camera_.project(q);
+    return px ? pixel_of(int(px->x() + Scalar(0.5)), int(px->y() + Scalar(0.5))) : -1;
+  }
+
   OrganizedCloud<Scalar> target_;
   Camera camera_;
   ProjectiveAssociationSettings settings_;
