@@ -362,10 +362,31 @@ TEST(Icp, BadInputIsAStatusNotACrash) {
 
 namespace {
 
+// An association with only the required and the point-wise members (no pixel partners, no target
+// arrays): ICP's pass then finds partners and fills rows one point at a time.
+template <typename A>
+struct PointwiseOnly {
+  using Scalar = typename A::Scalar;
+  const A& a;
+  const Vector3<Scalar>& target_point(std::ptrdiff_t i) const { return a.target_point(i); }
+  const Vector3<Scalar>& target_normal(std::ptrdiff_t i) const { return a.target_normal(i); }
+  bool has_target_normals() const { return a.has_target_normals(); }
+  void associate(const std::vector<Vector3<Scalar>>& q, Scalar d, int threads, std::vector<std::ptrdiff_t>& out) const {
+    a.associate(q, d, threads, out);
+  }
+  std::ptrdiff_t partner(const Vector3<Scalar>& q, Scalar d) const { return a.partner(q, d); }
+};
+static_assert(has_target_arrays<ProjectiveAssociation<float, PinholeCamera<float>>>::value &&
+                  has_target_arrays<KnnAssociation<double>>::value &&
+                  !has_target_arrays<PointwiseOnly<KnnAssociation<double>>>::value &&
+                  has_point_partner<PointwiseOnly<KnnAssociation<double>>>::value,
+              "optional association members");
+
 // One point-to-plane iteration against the file comment of icp.hpp written naively in double (each
 // pair through partner() and the pairing rules, Eigen's J Jᵀ, the same observable-subspace solve),
-// with every kernel and both associations, at every SIMD level: the vectorized pass builds the same
-// normal equations, so the same step.
+// with every kernel and both associations (also through only their point-wise members), at every SIMD
+// level, for the first and the second iteration: the vectorized pass builds the same normal
+// equations, so the same step.
 template <typename Scalar>
 void check_one_iteration_matches_naive(Assoc assoc) {
   const RandomViewPair<Scalar> p = random_view_pair<Scalar>(1000);
@@ -380,11 +401,12 @@ void check_one_iteration_matches_naive(Assoc assoc) {
   OrganizedNormalSettings<Scalar> ns;
   PointCloud<Scalar> source = subsample_with_normals(p.source.view(), cam, 1, ns);
   if (!with_normals) source.normals.clear();
-  const auto check = [&](const auto& association) {
+  // The step from `start` (and the pairs it used), naively.
+  const auto naive_step = [&](const auto& association, const Isometry3<Scalar>& start) {
     namespace rd = registration_detail;
-    const Eigen::Isometry3d T = p.init.template cast<double>();
-    const Eigen::Matrix<Scalar, 3, 3> R = p.init.linear();
-    const Vector3<Scalar> t = p.init.translation();
+    const Eigen::Isometry3d T = start.template cast<double>();
+    const Eigen::Matrix<Scalar, 3, 3> R = start.linear();
+    const Vector3<Scalar> t = start.translation();
     std::vector<Vector3<Scalar>> q;
     std::vector<std::size_t> from;
     // The rotation centre: the centroid of the usable points among every k-th one (icp.hpp).
@@ -429,20 +451,38 @@ void check_one_iteration_matches_naive(Assoc assoc) {
     Eigen::Isometry3d dT = Eigen::Isometry3d::Identity();
     if (omega.norm() > 0) dT.linear() = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
     dT.translation() = c - dT.linear() * c + delta.tail<3>();
-    const Eigen::Isometry3d expected = dT * T;
-    for (const SimdLevel level : available_simd_levels()) {
-      const SimdCap cap(level);
-      const IcpResult<Scalar> r = icp(source, association, p.init, s);
-      // Pairs on the edge of a rule may flip with the last bit of a float product.
-      const double tol_pairs = std::is_same<Scalar, float>::value ? 1e-3 * double(pairs) + 2 : 0;
-      RC_ASSERT(std::abs(double(r.inliers) - double(pairs)) <= tol_pairs);
-      const auto [et, er] = pose_error<double>(r.T_target_source.template cast<double>(), expected);
-      const double tol = std::is_same<Scalar, float>::value ? 2e-6 : 1e-10;
-      RC_LOG() << "level " << to_string(level) << " kernel " << int(s.kernel) << " pairs " << pairs << " vs "
-               << r.inliers << ", step error " << et << " m " << er << " rad\n";
-      RC_ASSERT(et < tol);
-      RC_ASSERT(er < tol * 10);
-    }
+    return std::make_pair(Eigen::Isometry3d(dT * T), pairs);
+  };
+  // ICP's first iteration from the start and its second one (from the first's pose: the second walks
+  // the list of usable points the first made) against the naive steps.
+  const auto check = [&](const auto& association) {
+    using Pointwise = PointwiseOnly<std::decay_t<decltype(association)>>;
+    IcpSettings<Scalar> s2 = s;
+    s2.max_iterations = 2;
+    s2.rotation_epsilon = s2.translation_epsilon = 0;
+    for (const SimdLevel level : available_simd_levels())
+      for (const bool whole : {true, false}) {  // with every optional member, and point-wise only
+        const SimdCap cap(level);
+        const auto run = [&](const IcpSettings<Scalar>& settings) {
+          return whole ? icp(source, association, p.init, settings) : icp(source, Pointwise{association}, p.init, settings);
+        };
+        const IcpResult<Scalar> r1 = run(s);
+        for (const int iteration : {1, 2}) {
+          const IcpResult<Scalar> r = iteration == 1 ? r1 : run(s2);
+          const auto [expected, pairs] = naive_step(association, iteration == 1 ? p.init : r1.T_target_source);
+          RC_ASSERT(r.iterations == iteration);
+          // Pairs on the edge of a rule may flip with the last bit of a float product.
+          const double tol_pairs = std::is_same<Scalar, float>::value ? 1e-3 * double(pairs) + 2 : 0;
+          RC_ASSERT(std::abs(double(r.inliers) - double(pairs)) <= tol_pairs);
+          const auto [et, er] = pose_error<double>(r.T_target_source.template cast<double>(), expected);
+          const double tol = std::is_same<Scalar, float>::value ? 2e-6 : 1e-10;
+          RC_LOG() << "level " << to_string(level) << (whole ? "" : " point-wise") << " iteration " << iteration
+                   << " kernel " << int(s.kernel) << " pairs " << pairs << " vs " << r.inliers << ", step error " << et
+                   << " m " << er << " rad\n";
+          RC_ASSERT(et < tol);
+          RC_ASSERT(er < tol * 10);
+        }
+      }
   };
   if (assoc == Assoc::projective) {
     check(make_projective_target(p.target.view(), cam));

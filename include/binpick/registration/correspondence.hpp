@@ -32,10 +32,16 @@
 ///   bool pixel_partner() const;
 ///   template <int Bytes>  // count: a multiple of Pack<Scalar, Bytes>::size; index: -1 = no pixel
 ///   void project_queries(const Scalar* x, const Scalar* y, const Scalar* z, int count, std::ptrdiff_t* index) const;
+///   // Optional, storage (both shipped strategies have it): the targets as arrays, target_point(i) ==
+///   // target_points_data()[i] for i < target_count() (target_normals_data() likewise, nullptr without
+///   // normals). ICP's point-to-plane pass then gathers a pack of partners at a time (AVX2 gathers).
+///   std::size_t target_count() const;
+///   const Eigen::Matrix<Scalar, 3, 1>* target_points_data() const;
+///   const Eigen::Matrix<Scalar, 3, 1>* target_normals_data() const;
 /// };
 /// \endcode
-/// `binpick::is_association<T>` checks the required members at compile time, `has_point_partner<T>`
-/// and `has_pixel_partner<T>` the optional ones.
+/// `binpick::is_association<T>` checks the required members at compile time, `has_point_partner<T>`,
+/// `has_pixel_partner<T>` and `has_target_arrays<T>` the optional ones.
 
 #include <cstddef>
 #include <type_traits>
@@ -75,6 +81,15 @@ struct has_pixel_partner<T, std::void_t<decltype(bool(std::declval<const T&>().p
                                             std::declval<const typename T::Scalar*>(), std::declval<const typename T::Scalar*>(),
                                             std::declval<const typename T::Scalar*>(), int(),
                                             std::declval<std::ptrdiff_t*>()))>> : std::true_type {};
+
+template <typename T, typename = void>
+struct has_target_arrays : std::false_type {};
+template <typename T>
+struct has_target_arrays<
+    T, std::void_t<decltype(std::size_t(std::declval<const T&>().target_count())),
+                   decltype(static_cast<const Eigen::Matrix<typename T::Scalar, 3, 1>*>(std::declval<const T&>().target_points_data())),
+                   decltype(static_cast<const Eigen::Matrix<typename T::Scalar, 3, 1>*>(std::declval<const T&>().target_normals_data()))>>
+    : std::true_type {};
 
 namespace registration_detail {
 /// associate() of a strategy that has partner(): every query on its own, `num_threads` threads.

@@ -297,6 +297,16 @@ BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b
   return out;
 }
 
+/// rows[d][i + l] = base[element[l] + d] (d = 0, 1, 2) for the lanes of `ok`, else 0: a pack of
+/// 3-vectors gathered from an array of them (element = 3 × index).
+template <typename Scalar, int Bytes>
+BINPICK_SIMD_INLINE void gather_xyz(const Scalar* base, const typename detail::Pack<Scalar, Bytes>::mask& element,
+                                    const typename detail::Pack<Scalar, Bytes>::mask& ok,
+                                    Scalar (&rows)[3][PairBlock<Scalar>::kSize], int i) {
+  using P = detail::Pack<Scalar, Bytes>;
+  for (int d = 0; d < 3; ++d) P::store(rows[d] + i, P::gather(base + d, element, ok));
+}
+
 BINPICK_SIMD_END
 
 struct PlaneAccumulator {
@@ -536,30 +546,72 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
       prm.check_partner = pixels;
       // A block: gather the source rows (scalar), move them (SIMD), find partners (SIMD projection, or
       // a scalar call per point), gather the partners' rows (scalar), and sum (SIMD, file comment).
+      // Rows are gathered a pack at a time (Pack::gather: AVX2 gathers) from the source's arrays and,
+      // with the optional storage members (correspondence.hpp), the target's, while the element
+      // offsets 3 i + 2 fit the index lanes (32-bit for float); else one point at a time.
+      const Scalar* tgt_p = nullptr;
+      const Scalar* tgt_n = nullptr;
+      bool gathers = false;
+      if constexpr (has_target_arrays<Association>::value) {
+        static_assert(sizeof(Vector3<Scalar>) == 3 * sizeof(Scalar), "3-vectors must be packed");
+        tgt_p = association.target_points_data()->data();
+        tgt_n = association.target_normals_data() ? association.target_normals_data()->data() : nullptr;
+        const std::size_t lanes_max = std::size_t(std::numeric_limits<std::int32_t>::max() / 3);
+        gathers = tgt_n != nullptr && association.target_count() < lanes_max && total < lanes_max;
+      }
+      const Scalar* src_p = source_points.empty() ? nullptr : source_points.data()->data();
+      const Scalar* src_n = use_normals ? source.normals.data()->data() : nullptr;
       const auto block_sums = [&](rd::PlaneAccumulator& acc, std::ptrdiff_t b) {
         rd::PairBlock<Scalar> blk;
         const std::ptrdiff_t first = b * rd::kPlaneBlock;
         const int count = int(std::min(n, first + rd::kPlaneBlock) - first);
-        for (int s = 0; s < count; ++s) {
-          const Scalar* p = src(first + s).data();
-          blk.p[0][s] = p[0];
-          blk.p[1][s] = p[1];
-          blk.p[2][s] = p[2];
-        }
-        if (check_normals)
+        if (!gathers) {
           for (int s = 0; s < count; ++s) {
-            const Scalar* nrm = src_normal(first + s);
-            blk.ns[0][s] = nrm[0];
-            blk.ns[1][s] = nrm[1];
-            blk.ns[2][s] = nrm[2];
+            const Scalar* p = src(first + s).data();
+            blk.p[0][s] = p[0];
+            blk.p[1][s] = p[1];
+            blk.p[2][s] = p[2];
           }
+          if (check_normals)
+            for (int s = 0; s < count; ++s) {
+              const Scalar* nrm = src_normal(first + s);
+              blk.ns[0][s] = nrm[0];
+              blk.ns[1][s] = nrm[1];
+              blk.ns[2][s] = nrm[2];
+            }
+        }
         rd::PlaneBlockSums<Scalar> sums;
         detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
           constexpr int Bytes = decltype(bytes)::value;
-          constexpr int L = detail::Pack<Scalar, Bytes>::size;
+          using P = detail::Pack<Scalar, Bytes>;
+          using Mask = typename P::mask;
+          using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
+          constexpr int L = P::size;
           const int padded = (count + L - 1) / L * L;
-          for (int s = count; s < padded; ++s)  // padding: no partner
-            for (int d = 0; d < 3; ++d) blk.p[d][s] = blk.ns[d][s] = Scalar(0);
+          if (gathers) {
+            Mask lane;
+            for (int l = 0; l < L; ++l) lane[l] = Index(l);
+            const Mask three = Mask() + Index(3);
+            for (int i = 0; i < padded; i += L) {
+              const Mask ok = lane + Index(i) < Index(count);
+              Mask index;
+              if (!listed) {
+                index = (lane + Index(first + i)) * Index(stride);
+              } else if (i + L <= count) {  // L list entries (< 2^31 / 3: gathers)
+                typename detail::Lanes<std::uint32_t, L>::type k;
+                std::memcpy(&k, kept.data() + first + i, sizeof k);
+                index = __builtin_convertvector(k, Mask);
+              } else {
+                for (int l = 0; l < L; ++l) index[l] = i + l < count ? Index(kept[std::size_t(first + i + l)]) : Index(0);
+              }
+              const Mask element = ok & (index * three);
+              rd::gather_xyz<Scalar, Bytes>(src_p, element, ok, blk.p, i);
+              if (check_normals) rd::gather_xyz<Scalar, Bytes>(src_n, element, ok, blk.ns, i);
+            }
+          } else {
+            for (int s = count; s < padded; ++s)  // padding: no partner
+              for (int d = 0; d < 3; ++d) blk.p[d][s] = blk.ns[d][s] = Scalar(0);
+          }
           rd::move_rows<Scalar, Bytes>(blk, padded, prm);
           for (int s = count; s < padded; ++s) blk.use[s] = Scalar(0);
           if (!listed) {  // list this block's usable points in its own range of `kept`
@@ -585,6 +637,18 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
             }
           }
           for (int s = count; s < padded; ++s) blk.partner[s] = -1;
+          if (gathers) {
+            const Mask three = Mask() + Index(3);
+            for (int i = 0; i < padded; i += L) {
+              typename detail::Lanes<std::ptrdiff_t, L>::type j;
+              std::memcpy(&j, blk.partner + i, sizeof j);
+              const Mask index = __builtin_convertvector(j, Mask);  // < 2^31 / 3 (gathers)
+              const Mask ok = index >= Index(0);
+              const Mask element = ok & (index * three);
+              rd::gather_xyz<Scalar, Bytes>(tgt_p, element, ok, blk.y, i);
+              rd::gather_xyz<Scalar, Bytes>(tgt_n, element, ok, blk.nt, i);
+            }
+          } else
           for (int s = 0; s < padded; ++s) {
             const std::ptrdiff_t j = blk.partner[s];
             if (j >= 0) {

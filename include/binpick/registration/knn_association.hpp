@@ -34,6 +34,10 @@ class KnnAssociation {
   const Vector3<Scalar>& target_point(std::ptrdiff_t i) const { return target_.points[std::size_t(i)]; }
   const Vector3<Scalar>& target_normal(std::ptrdiff_t i) const { return target_.normals[std::size_t(i)]; }
   bool has_target_normals() const { return target_.has_normals(); }
+  /// The targets as arrays (correspondence.hpp, the optional storage members).
+  std::size_t target_count() const { return target_.points.size(); }
+  const Vector3<Scalar>* target_points_data() const { return target_.points.data(); }
+  const Vector3<Scalar>* target_normals_data() const { return target_.has_normals() ? target_.normals.data() : nullptr; }
 
   /// The nearest target point within max_distance of `query` (finite), or -1: one search, no arrays,
   /// so ICP's point-to-plane loop calls it per point (correspondence.hpp, `has_point_partner`) and

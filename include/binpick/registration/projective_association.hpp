@@ -55,6 +55,10 @@ class ProjectiveAssociation {
   const Vector3<Scalar>& target_point(std::ptrdiff_t i) const { return target_.points[std::size_t(i)]; }
   const Vector3<Scalar>& target_normal(std::ptrdiff_t i) const { return target_.normals[std::size_t(i)]; }
   bool has_target_normals() const { return target_.has_normals(); }
+  /// The targets as arrays (correspondence.hpp, the optional storage members).
+  std::size_t target_count() const { return target_.points.size(); }
+  const Vector3<Scalar>* target_points_data() const { return target_.points.data(); }
+  const Vector3<Scalar>* target_normals_data() const { return target_.has_normals() ? target_.normals.data() : nullptr; }
 
   /// Moves the target cloud out (the association is empty afterwards and must not associate again):
   /// a caller that builds one association per frame keeps the memory for the next frame.
