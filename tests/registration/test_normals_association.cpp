@@ -185,6 +185,12 @@ void check_organized_normals_match_reference() {
   s.max_crease_angle = Scalar(uniform(0.1, 3.3));
   s.one_sided_at_edges = *rc::gen::arbitrary<bool>();
   estimate_organized_normals(cloud, s);
+  // Rows on two threads (from 9 rows on): the same normals.
+  OrganizedCloud<Scalar> two = cloud;
+  OrganizedNormalSettings<Scalar> s2 = s;
+  s2.num_threads = 2;
+  estimate_organized_normals(two, s2);
+  RC_ASSERT(two.normals == cloud.normals);
   const Scalar cc = registration_detail::cos_crease(s);
   std::size_t flips = 0;
   for (int v = 0; v < h; ++v)

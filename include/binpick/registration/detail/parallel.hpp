@@ -21,11 +21,12 @@ namespace registration_detail {
 /// kept under this name for the registration headers.
 inline int resolve_threads(int requested) { return detail::resolve_num_threads(requested); }
 
-/// Calls f(i) for i in [0, n) on `threads` threads (independent iterations).
+/// Calls f(i) for i in [0, n) on `threads` threads (independent iterations). Ranges of
+/// `min_parallel` items or fewer run on the calling thread (lower it when an item is a whole row).
 template <typename F>
-void parallel_for(std::ptrdiff_t n, int threads, F&& f) {
+void parallel_for(std::ptrdiff_t n, int threads, F&& f, std::ptrdiff_t min_parallel = 1024) {
 #ifdef _OPENMP
-  if (threads > 1 && n > 1024) {
+  if (threads > 1 && n > min_parallel) {
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (std::ptrdiff_t i = 0; i < n; ++i) f(i);
     return;
