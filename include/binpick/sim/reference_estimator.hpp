@@ -23,7 +23,9 @@
 ///     samples (registration/icp.hpp with a voxel nearest-sample association); the best starts
 ///     (confidence × share of the segment's cells the fit supports: a part turned so that a narrower
 ///     face lies inside the measured one is as well supported, but covers less) are refined with all
-///     depth points around the part and must explain most of their segment; the best so ranked wins;
+///     depth points around the part, an n-fold prism seen along its axis is turned about it to where
+///     the segment's outline has its corners (turn_to_outline: a flat face leaves that turn
+///     unobservable to ICP), and each must explain most of its segment; the best so ranked wins;
 ///  4. score: the fitted model's sampled surface is z-buffered into the grid; a visible cell is
 ///     supported when the measured depth lies within δ, empty when the sensor sees through it (the
 ///     measured depth lies beyond the model by more than δ): confidence = 100 · (supported − empty) /
@@ -87,6 +89,8 @@ struct ReferenceEstimatorSettings {
   Scalar fine_distance = Scalar(0.003);        ///< partner distance of the first refinement round [m] (second: half)
   Scalar support_distance = Scalar(0.0015);    ///< δ: measured depth within this of the model supports it [m]
   Scalar grazing_cosine = Scalar(0.25);        ///< model samples seen more obliquely than this are not scored
+  Scalar outline_max_tilt = Scalar(0.6);       ///< n-fold prisms: turn to the outline's corners up to this axis tilt [rad]
+  Scalar outline_min_strength = Scalar(0.3);   ///< ... when they show this × as clearly as on the model (0 = never)
   Scalar explain_distance = Scalar(0.0015);    ///< a segment point this near the fitted model is explained [m]
   Scalar min_segment_explained = Scalar(0.6);  ///< fits explaining less of their segment are dropped
   Scalar min_confidence = Scalar(35);          ///< [%] weaker hypotheses are dropped
@@ -191,6 +195,9 @@ class ReferenceEstimator {
     require(std::isfinite(s.support_distance) && s.support_distance > 0, "support_distance", "must be finite and > 0");
     require(std::isfinite(s.grazing_cosine) && s.grazing_cosine >= 0 && s.grazing_cosine < 1, "grazing_cosine",
             "must be in [0, 1)");
+    require(std::isfinite(s.outline_max_tilt) && s.outline_max_tilt >= 0, "outline_max_tilt", "must be finite and >= 0");
+    require(std::isfinite(s.outline_min_strength) && s.outline_min_strength >= 0, "outline_min_strength",
+            "must be finite and >= 0");
     require(std::isfinite(s.explain_distance) && s.explain_distance > 0, "explain_distance", "must be finite and > 0");
     require(std::isfinite(s.min_segment_explained) && s.min_segment_explained >= 0 && s.min_segment_explained <= 1,
             "min_segment_explained", "must be in [0, 1]");
@@ -575,7 +582,7 @@ class ReferenceEstimator {
       for (std::size_t k = 0; k < order.size() && k < std::size_t(s_.refined_starts); ++k) {
         detail::Hypothesis<Scalar> h2;
         h2.model = int(mi);
-        h2.T_camera_object = refine(g, cam, pm, fitted[order[k]]);
+        h2.T_camera_object = turn_to_outline(pm, refine(g, cam, pm, fitted[order[k]]), seg);
         // The part must explain its own segment (a part-sized piece of a bin rim does not).
         if (explained_share(pm, h2.T_camera_object, seg) < s_.min_segment_explained) continue;
         score(g, cam, pm, h2, true);
@@ -587,6 +594,32 @@ class ReferenceEstimator {
       }
     }
     return best;
+  }
+
+  /// An n-fold prism seen along its axis (a hex nut from above) shows a face whose depth fixes
+  /// everything but the turn about the axis, and ICP leaves an unobservable direction alone: the turn
+  /// comes from where the segment's outline has its corners (the n-th angular harmonic of its points
+  /// about the fitted axis, as the model's). Kept when the axis is within outline_max_tilt of the line
+  /// of sight and the corners show at least outline_min_strength × as clearly as on the model; else
+  /// the fit as it is.
+  Isometry3<Scalar> turn_to_outline(const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_camera_object,
+                                    const std::vector<Vec3>& seg) const {
+    const int n = pm.symmetry.z_fold;
+    if (pm.symmetry.continuous_z || n < 3 || !(s_.outline_min_strength > 0) || std::abs(pm.outline) == 0)
+      return T_camera_object;
+    const Vec3 sight = T_camera_object.translation().normalized();
+    if (!(std::abs(T_camera_object.linear().col(2).dot(sight)) >= std::cos(s_.outline_max_tilt))) return T_camera_object;
+    const Isometry3<Scalar> T_oc = T_camera_object.inverse(Eigen::Isometry);
+    std::vector<Vec3> local;
+    local.reserve(seg.size());
+    for (const Vec3& p : seg) local.push_back(T_oc * p);
+    const std::complex<double> seen =
+        detail::outline_harmonic(local, n, double(pm.model.bounding_radius) + double(s_.support_distance));
+    if (!(std::abs(seen) >= double(s_.outline_min_strength) * std::abs(pm.outline))) return T_camera_object;
+    const double turn = std::arg(seen / pm.outline) / double(n);
+    Isometry3<Scalar> T = T_camera_object;
+    T.linear() = T.linear() * Eigen::AngleAxis<Scalar>(Scalar(turn), Vec3::UnitZ()).toRotationMatrix();
+    return T;
   }
 
   /// Share of the segment's cells (`sorted_cells`) that the scored hypothesis supports. It ranks a

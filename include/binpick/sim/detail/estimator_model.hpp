@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -205,6 +206,24 @@ class VoxelAssociation {
 };
 
 /// A part model prepared for recognition.
+/// The n-th angular harmonic about the z axis of points (part frame) within `radius` of it, each
+/// weighted by r⁴ so the outline (the corners of a polygonal prism) dominates, divided by the sum of
+/// the weights: its argument / n is where the corners are, its magnitude how clearly (0 for a
+/// circle). 0 when no point counts.
+template <typename Scalar>
+std::complex<double> outline_harmonic(const std::vector<Vector3<Scalar>>& points, int n, double radius) {
+  std::complex<double> sum = 0;
+  double weight = 0;
+  for (const auto& p : points) {
+    const double x = double(p.x()), y = double(p.y()), r2 = x * x + y * y;
+    if (!(r2 <= radius * radius) || r2 == 0) continue;
+    const double w = r2 * r2;
+    sum += w * std::polar(1.0, double(n) * std::atan2(y, x));
+    weight += w;
+  }
+  return weight > 0 ? sum / weight : std::complex<double>(0);
+}
+
 template <typename Scalar>
 struct PreparedModel {
   PartModel<Scalar> model;
@@ -213,6 +232,9 @@ struct PreparedModel {
   std::shared_ptr<const VoxelAssociation<Scalar>> association;  ///< nearest sample lookup
   Matrix3<Scalar> axes = Matrix3<Scalar>::Identity();   ///< principal axes of the surface
   Vector3<Scalar> centroid = Vector3<Scalar>::Zero();   ///< of the surface samples
+  /// n-fold parts (symmetry.z_fold >= 3, not continuous): the n-th angular harmonic of the samples
+  /// about the z axis (outline_harmonic), normalized by its weights: where the corners are.
+  std::complex<double> outline = 0;
 
   static PreparedModel make(const PartModel<Scalar>& m, Scalar spacing, Scalar voxel, Scalar margin) {
     PreparedModel p;
@@ -221,6 +243,8 @@ struct PreparedModel {
     p.fine = sample_surface(m.mesh, spacing, 0xf1e5ULL + std::uint64_t(m.type));
     p.association = std::make_shared<const VoxelAssociation<Scalar>>(p.fine, voxel, margin);
     principal_axes(p.fine.points, p.axes, p.centroid);
+    if (!p.symmetry.continuous_z && p.symmetry.z_fold >= 3)
+      p.outline = outline_harmonic(p.fine.points, p.symmetry.z_fold, double(m.bounding_radius));
     return p;
   }
 };
