@@ -125,9 +125,14 @@ struct OracleEstimator {
   const sim::Scene<S>* scene;
   const TestSensor* sensor;
   std::vector<std::thread::id> threads;  // the thread of each call
+  bool blind = false;                     // recognizes nothing
   cycle::EstimationResult<S> estimate(const cycle::EstimatorInput<S, Camera>& in) {
     threads.push_back(std::this_thread::get_id());
     cycle::EstimationResult<S> r;
+    if (blind) {
+      r.status = cycle::EstimationStatus::no_objects;
+      return r;
+    }
     if (!in.camera) {
       r.status = cycle::EstimationStatus::invalid_input;
       return r;
@@ -165,13 +170,14 @@ struct TestCell {
   std::unique_ptr<simcell::SimGripper<S>> gripper;
   std::unique_ptr<Pipeline> pipeline;
 
-  TestCell(int parts, cycle::Strategy strategy, std::uint64_t seed = 5) {
+  TestCell(int parts, cycle::Strategy strategy, std::uint64_t seed = 5, bool vary_search = true) {
     sim::SceneSettings<S> ss;
     ss.part_type = sim::PartType::circle_nut;
     ss.num_parts = parts;
     scene = sim::Scene<S>::generate(ss, seed);
     cycle::PipelineSettings<S> ps;
     ps.strategy = strategy;
+    ps.vary_search = vary_search;
     fake_robot = std::make_unique<sim::FakeRobot<S>>(clock, ps.T_base_drop);
     sim::StereoSensorSettings<S> st;
     st.width = 640;
@@ -222,6 +228,43 @@ TEST(Pipeline, EmptiesASmallPileWithProcessingDuringTheDrop) {
   }
   EXPECT_TRUE(cell.scene.parts().empty()) << "pile not emptied in " << cycles << " cycles";
   EXPECT_GE(placed, 2);
+}
+
+// Searches in a row aim at the bin centre, then at those of its quarters an arc reaches, then around
+// again (vary_search); without it every search aims at the same spot.
+TEST(Pipeline, SearchesInARowAimAtDifferentPartsOfTheBin) {
+  for (const bool vary : {true, false}) {
+    TestCell cell(3, cycle::Strategy::ours, 5, vary);
+    cell.estimator.blind = true;
+    const cycle::PipelineSettings<S>& ps = cell.pipeline->settings();
+    std::vector<Eigen::Vector3f> targets;
+    for (int c = 0; c < 7; ++c) {
+      const auto r = cell.pipeline->run_cycle();
+      ASSERT_TRUE(r.error.empty()) << r.error;
+      EXPECT_EQ(r.status, cycle::CycleStatus::nothing_recognized);
+      EXPECT_EQ(r.search, c > 0);  // the first cycle runs the predefined path
+      if (r.search) targets.push_back(r.target);
+    }
+    ASSERT_EQ(targets.size(), 6u);
+    EXPECT_EQ(cell.pipeline->searches(), 7);
+    for (const auto& t : targets) {
+      EXPECT_LE(std::abs(t.x() - ps.bin_center.x()), ps.bin_length / 2);
+      EXPECT_LE(std::abs(t.y() - ps.bin_center.y()), ps.bin_width / 2);
+    }
+    // The period: the first search aiming where the first one did.
+    std::size_t period = 1;
+    while (period < targets.size() && (targets[period] - targets[0]).norm() > 1e-6f) ++period;
+    if (!vary) {
+      EXPECT_EQ(period, 1u);
+    } else {
+      EXPECT_GE(period, 2u);  // at least one quarter is reachable in this layout
+      EXPECT_LE(period, 5u);
+    }
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      if (i >= period) EXPECT_LT((targets[i] - targets[i - period]).norm(), 1e-6f) << i;
+      for (std::size_t j = 0; j < i && i < period; ++j) EXPECT_GT((targets[i] - targets[j]).norm(), ps.bin_width / 4) << i << " " << j;
+    }
+  }
 }
 
 TEST(Pipeline, ProcessesEveryCycleOnOneThreadItOwns) {

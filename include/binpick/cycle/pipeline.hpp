@@ -20,7 +20,10 @@
 /// The first cycle uses a predefined path (Alg. 2 aimed at the bin centre from a home point above
 /// it). When nothing is recognized (or no grasp is reachable) the next cycle runs the *search move*:
 /// from the home point, an arc over the bin centre with `search_beta_factor` × β coverage — a wider
-/// look — counted in CycleResult::search.
+/// look — counted in CycleResult::search. Searches in a row (no grasp between them) aim in turn at the
+/// bin centre and at the centres of those of its four quarters that an arc from the home point reaches
+/// (`vary_search`): a look that found nothing is not repeated from the same side while parts may lie
+/// where it saw them badly.
 ///
 /// Baselines (§IV.D): `single_view` (A) is ours with n = 1; `random_path` (B) aims each sensing path
 /// at a random point of the bin instead of Eq. 1; `stop_and_go` (C) is the conventional cell of Robot
@@ -101,6 +104,7 @@ struct PipelineSettings {
   Scalar working_distance = Scalar(0.30);   ///< r, radius of the sphere S [m]
   Scalar min_elevation = Scalar(0);         ///< lowest sensor elevation over T along the arc [rad]
   Scalar search_beta_factor = Scalar(2);    ///< the search arc covers this × β [-]
+  bool vary_search = true;                  ///< searches in a row aim at the bin centre, then its quarters (file comment)
   // Motion.
   Scalar motion_speed_percent = Scalar(80);  ///< lift, drop, return [%]
   Scalar grasp_speed_percent = Scalar(30);   ///< the last approach to the grasp pose [%]
@@ -352,6 +356,7 @@ class PickingPipeline {
     require(!predefined_.T_base_cameras.empty(), "settings", "the cell layout admits no predefined sensing path");
     search_ = home_path(std::min(Scalar(M_PI / 2), beta_ * s_.search_beta_factor), PathSource::search);
     if (search_.T_base_cameras.empty()) search_ = predefined_;
+    searches_in_turn_ = search_plans();
     next_ = predefined_;
   }
 
@@ -472,6 +477,21 @@ class PickingPipeline {
   Plan home_path(Scalar beta, PathSource source) const {
     const Vec3 A = s_.bin_center;
     return to_plan(alg2(default_target(), A, T_home_, beta), T_home_, default_target(), source);
+  }
+
+  /// The searches in a row go through (file comment): the bin centre's, then those of the bin's
+  /// quarters whose arc exists from the home point (Alg. 2 may find none toward some of them).
+  std::vector<Plan> search_plans() const {
+    std::vector<Plan> out{search_};
+    const Scalar beta = std::min(Scalar(M_PI / 2), beta_ * s_.search_beta_factor);
+    const Scalar sx[4] = {1, -1, -1, 1}, sy[4] = {1, 1, -1, -1};
+    for (int q = 0; q < 4 && s_.vary_search; ++q) {
+      const Vec3 A = s_.bin_center + Vec3(sx[q] * s_.bin_length / 4, sy[q] * s_.bin_width / 4, 0);
+      const Vec3 target = A + (default_target() - s_.bin_center);
+      const Plan p = to_plan(alg2(target, A, T_home_, beta), T_home_, target, PathSource::search);
+      if (!p.T_base_cameras.empty()) out.push_back(p);
+    }
+    return out;
   }
 
   /// Alg. 2 with the documented fallbacks (file comment).
@@ -722,7 +742,7 @@ class PickingPipeline {
     if (!p.ok) throw CycleFailure(p.status, p.error);
     if (!p.has_grasp) {
       ++searches_;
-      next_ = search_;
+      next_ = searches_in_turn_[std::size_t(searches_in_row_++) % searches_in_turn_.size()];
       move({T_home_}, s_.motion_speed_percent, "to home (search)", tl);
       r.status = CycleStatus::nothing_recognized;
       return;
@@ -741,6 +761,7 @@ class PickingPipeline {
       throw CycleFailure(CycleStatus::robot_failure, std::string("gripper: ") + e.what());
     }
     move({pre, next_B_}, s_.motion_speed_percent, "lift A->B", tl);
+    searches_in_row_ = 0;
     holding_ = held;
     if (held)
       failed_grasps_.clear();
@@ -929,6 +950,8 @@ class PickingPipeline {
   bool holding_ = false;
   int cycles_ = 0;
   int searches_ = 0;
+  int searches_in_row_ = 0;  ///< searches since the last grasp
+  std::vector<Plan> searches_in_turn_;  ///< search_plans()
 };
 
 }  // namespace binpick::cycle
