@@ -15,15 +15,15 @@
 ///     g = Σ w J r.  Point-to-point: weighted Kabsch/Umeyama (SVD of the cross-covariance).
 ///  4. T ← ΔT T; stop when ΔT rotates less than `rotation_epsilon` and moves the source centroid
 ///     less than `translation_epsilon`.
-/// A large source is registered coarse to fine (IcpSettings::coarse_points): a subsample first, then
-/// all points from its pose.
+/// A large source is registered coarse to fine (IcpSettings::coarse_points): a subsample first (copied
+/// out once), then all points from its pose.
 /// Degeneracy (point-to-plane): H is scaled to unit mean diagonal per block (rotation, translation);
 /// eigen-directions whose eigenvalue is below `degeneracy_threshold` × the largest are unobservable
 /// (e.g. sliding on one plane) and the update is confined to the observable subspace, so those
 /// directions keep their initial value; the result then says `degenerate`.
 /// Point-to-plane sums are formed in the caller's scalar over blocks of 256 points (gathered into
-/// structure-of-arrays rows, moved, paired and summed lane-wise in SIMD packs, every rejection a lane
-/// mask; AVX2 chosen at run time, core/simd_level.hpp) and added in double
+/// structure-of-arrays rows, with AVX2 gathers where available, moved, paired and summed lane-wise in
+/// SIMD packs, every rejection a lane mask; AVX2 chosen at run time, core/simd_level.hpp) and added in double
 /// (point-to-point sums in double), one accumulator per thread over fixed ranges of blocks, merged in
 /// order: deterministic for a fixed thread count. Numerical failure is a status, never an exception.
 
@@ -544,11 +544,11 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
       bool pixels = false;
       if constexpr (has_pixel_partner<Association>::value) pixels = association.pixel_partner();
       prm.check_partner = pixels;
-      // A block: gather the source rows (scalar), move them (SIMD), find partners (SIMD projection, or
-      // a scalar call per point), gather the partners' rows (scalar), and sum (SIMD, file comment).
-      // Rows are gathered a pack at a time (Pack::gather: AVX2 gathers) from the source's arrays and,
-      // with the optional storage members (correspondence.hpp), the target's, while the element
-      // offsets 3 i + 2 fit the index lanes (32-bit for float); else one point at a time.
+      // A block: gather the source rows, move them (SIMD), find partners (SIMD projection, or a scalar
+      // call per point), gather the partners' rows, and sum (SIMD, file comment). Rows are gathered a
+      // pack at a time (Pack::gather: AVX2 gathers) from the source's arrays and, through the optional
+      // storage members (correspondence.hpp), the target's, while the element offsets 3 i + 2 fit the
+      // index lanes (32-bit for float); else one point at a time.
       const Scalar* tgt_p = nullptr;
       const Scalar* tgt_n = nullptr;
       bool gathers = false;
@@ -648,18 +648,19 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
               rd::gather_xyz<Scalar, Bytes>(tgt_p, element, ok, blk.y, i);
               rd::gather_xyz<Scalar, Bytes>(tgt_n, element, ok, blk.nt, i);
             }
-          } else
-          for (int s = 0; s < padded; ++s) {
-            const std::ptrdiff_t j = blk.partner[s];
-            if (j >= 0) {
-              const Scalar* y = association.target_point(j).data();
-              const Scalar* nt = association.target_normal(j).data();
-              for (int d = 0; d < 3; ++d) {
-                blk.y[d][s] = y[d];
-                blk.nt[d][s] = nt[d];
+          } else {
+            for (int s = 0; s < padded; ++s) {
+              const std::ptrdiff_t j = blk.partner[s];
+              if (j >= 0) {
+                const Scalar* y = association.target_point(j).data();
+                const Scalar* nt = association.target_normal(j).data();
+                for (int d = 0; d < 3; ++d) {
+                  blk.y[d][s] = y[d];
+                  blk.nt[d][s] = nt[d];
+                }
+              } else {
+                for (int d = 0; d < 3; ++d) blk.y[d][s] = blk.nt[d][s] = Scalar(0);
               }
-            } else {
-              for (int d = 0; d < 3; ++d) blk.y[d][s] = blk.nt[d][s] = Scalar(0);
             }
           }
           sums = rd::plane_sums<Scalar, Bytes>(blk, padded, prm);
