@@ -261,8 +261,12 @@ TEST(Pipeline, SearchesInARowAimAtDifferentPartsOfTheBin) {
       EXPECT_LE(period, 5u);
     }
     for (std::size_t i = 0; i < targets.size(); ++i) {
-      if (i >= period) EXPECT_LT((targets[i] - targets[i - period]).norm(), 1e-6f) << i;
-      for (std::size_t j = 0; j < i && i < period; ++j) EXPECT_GT((targets[i] - targets[j]).norm(), ps.bin_width / 4) << i << " " << j;
+      if (i >= period) {
+        EXPECT_LT((targets[i] - targets[i - period]).norm(), 1e-6f) << i;
+      }
+      for (std::size_t j = 0; j < i && i < period; ++j) {
+        EXPECT_GT((targets[i] - targets[j]).norm(), ps.bin_width / 4) << i << " " << j;
+      }
     }
   }
 }
