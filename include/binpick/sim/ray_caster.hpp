@@ -202,11 +202,14 @@ class RayCaster {
     if (!(std::abs(det) > std::numeric_limits<Scalar>::min())) return false;
     const Scalar inv = Scalar(1) / det;
     const Vec3 s = o - v0_[std::size_t(t)];
+    // Edges widened by a few ulps: a ray through the edge two triangles share must hit one of them,
+    // and rounding can put it outside both (a seam in a floor; the ray then hit what lies behind).
+    const Scalar eps = Scalar(64) * std::numeric_limits<Scalar>::epsilon();
     const Scalar u = s.dot(p) * inv;
-    if (u < Scalar(0) || u > Scalar(1)) return false;
+    if (u < -eps || u > Scalar(1) + eps) return false;
     const Vec3 q = s.cross(e1);
     const Scalar v = d.dot(q) * inv;
-    if (v < Scalar(0) || u + v > Scalar(1)) return false;
+    if (v < -eps || u + v > Scalar(1) + eps) return false;
     const Scalar tt = e2.dot(q) * inv;
     if (!(tt > t_min && tt < t_max)) return false;
     t_out = tt;
