@@ -11,10 +11,12 @@
 
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
 
+#include "binpick/core/detail/simd.hpp"
 #include "binpick/core/errors.hpp"
 #include "binpick/registration/detail/parallel.hpp"
 #include "binpick/registration/kdtree.hpp"
@@ -128,10 +130,10 @@ Vector3<Scalar> organized_normal_interior(const Vector3<Scalar>* p, std::ptrdiff
   const Scalar n2 = nx * nx + ny * ny + nz * nz;
   if (!(n2 > Scalar(1e-6) * (ux * ux + uy * uy + uz * uz) * (vx * vx + vy * vy + vz * vz)) || !std::isfinite(n2))
     return Vector3<Scalar>::Zero();
-  const Scalar norm = std::sqrt(n2);
-  nx /= norm;
-  ny /= norm;
-  nz /= norm;
+  const Scalar inv = Scalar(1) / std::sqrt(n2);
+  nx *= inv;
+  ny *= inv;
+  nz *= inv;
   if (nx * cx + ny * cy + nz * cz > Scalar(0)) return Vector3<Scalar>(-nx, -ny, -nz);  // toward the camera
   return Vector3<Scalar>(nx, ny, nz);
 }
@@ -152,6 +154,126 @@ Scalar cos_crease(const OrganizedNormalSettings<Scalar>& settings) {
   return std::cos(std::min(settings.max_crease_angle, Scalar(3.14159265358979323846)));
 }
 
+/// One image row as coordinate arrays (the pack kernel loads neighbours contiguously).
+template <typename Scalar>
+struct RowXyz {
+  const Scalar *x, *y, *z;
+};
+
+BINPICK_SIMD_BEGIN
+
+/// organized_normal_interior for `Pack<Scalar, Bytes>::size` neighbouring pixels from column `u` on
+/// (every one at least k pixels inside the image): the same operations in the same order lane by
+/// lane, so the same bits (the crease sign test is chosen once per call, not per lane). `c` is the
+/// pixel's row, `t` / `d` the rows k above and below; `k` the column offset of the left and right
+/// neighbours. Writes the normals to out[0..size).
+template <typename Scalar, int Bytes>
+BINPICK_SIMD_INLINE void organized_normals_pack(const RowXyz<Scalar>& c, const RowXyz<Scalar>& t, const RowXyz<Scalar>& d,
+                                                int u, int k, Scalar jump_ratio, Scalar cos_crease,
+                                                Vector3<Scalar>* out) {
+  using P = detail::Pack<Scalar, Bytes>;
+  using V = typename P::type;
+  using M = typename P::mask;
+  const V zero = P::splat(Scalar(0)), inf = P::splat(std::numeric_limits<Scalar>::infinity());
+  const V cx = P::load(c.x + u), cy = P::load(c.y + u), cz = P::load(c.z + u);
+  const V rx = P::load(c.x + u + k), ry = P::load(c.y + u + k), rz = P::load(c.z + u + k);
+  const V lx = P::load(c.x + u - k), ly = P::load(c.y + u - k), lz = P::load(c.z + u - k);
+  const V dx = P::load(d.x + u), dy = P::load(d.y + u), dz = P::load(d.z + u);
+  const V tx = P::load(t.x + u), ty = P::load(t.y + u), tz = P::load(t.z + u);
+  const V jump = P::splat(jump_ratio) * cz;
+  // |a| <= jump as two comparisons: the same truth for every value, NaN and inf included.
+  const auto near = [&](const V& a) BINPICK_SIMD_INLINE_LAMBDA { return (a <= jump) & (-a <= jump); };
+  M ok = (cz > zero) & (rz > zero) & (lz > zero) & (dz > zero) & (tz > zero) & near(rz - cz) & near(lz - cz) &
+         near(dz - cz) & near(tz - cz);
+  const V cc2 = P::splat(cos_crease * cos_crease);
+  const bool cos_positive = cos_crease >= Scalar(0);
+  const auto crease = [&](const V& fx, const V& fy, const V& fz, const V& bx, const V& by, const V& bz)
+                          BINPICK_SIMD_INLINE_LAMBDA {
+                            const V dot = fx * bx + fy * by + fz * bz;
+                            const V pp = (fx * fx + fy * fy + fz * fz) * (bx * bx + by * by + bz * bz);
+                            return cos_positive ? M((dot < zero) | (dot * dot < cc2 * pp))
+                                                : M((dot < zero) & (dot * dot > cc2 * pp));
+                          };
+  const V ufx = rx - cx, ufy = ry - cy, ufz = rz - cz;
+  const V ubx = cx - lx, uby = cy - ly, ubz = cz - lz;
+  const V vfx = dx - cx, vfy = dy - cy, vfz = dz - cz;
+  const V vbx = cx - tx, vby = cy - ty, vbz = cz - tz;
+  ok &= ~(crease(ufx, ufy, ufz, ubx, uby, ubz) | crease(vfx, vfy, vfz, vbx, vby, vbz));
+  const V ux = ufx + ubx, uy = ufy + uby, uz = ufz + ubz;
+  const V vx = vfx + vbx, vy = vfy + vby, vz = vfz + vbz;
+  const V nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+  const V n2 = nx * nx + ny * ny + nz * nz;
+  ok &= (n2 > P::splat(Scalar(1e-6)) * (ux * ux + uy * uy + uz * uz) * (vx * vx + vy * vy + vz * vz)) & (n2 < inf);
+  const V inv = P::splat(Scalar(1)) / P::sqrt(P::select(ok, n2, P::splat(Scalar(1))));
+  V ox = nx * inv, oy = ny * inv, oz = nz * inv;
+  const M flip = ox * cx + oy * cy + oz * cz > zero;  // toward the camera
+  ox = P::select(ok, P::select(flip, -ox, ox), zero);
+  oy = P::select(ok, P::select(flip, -oy, oy), zero);
+  oz = P::select(ok, P::select(flip, -oz, oz), zero);
+  for (int l = 0; l < P::size; ++l) out[l] = Vector3<Scalar>(ox[l], oy[l], oz[l]);
+}
+
+BINPICK_SIMD_END
+
+/// The normals of every pixel of `cloud` into out[0 .. width*height): organized_normal's result at
+/// each pixel. Interior pixels go through organized_normals_pack on coordinate rows; a thread keeps
+/// the 2k + 1 rows its next row needs in a ring, so each row is rearranged about once.
+template <typename Scalar>
+void organized_normals_into(const OrganizedCloud<Scalar>& cloud, const OrganizedNormalSettings<Scalar>& settings,
+                            int threads, Vector3<Scalar>* out) {
+  const Scalar cc = cos_crease(settings);
+  const int k = settings.pixel_offset, w = cloud.width, h = cloud.height;
+  const auto scalar_row = [&](int v, int u_begin, int u_end) {
+    for (int u = u_begin; u < u_end; ++u) out[cloud.index(u, v)] = organized_normal(cloud, u, v, settings, cc);
+  };
+  if (settings.one_sided_at_edges || w < 2 * k + 1 || h < 2 * k + 1) {
+    parallel_for(h, threads, [&](std::ptrdiff_t v) { scalar_row(int(v), 0, w); }, 8);
+    return;
+  }
+  struct Ring {
+    std::vector<Scalar> xyz;  // slots of 3 × width coordinates
+    std::vector<int> row;     // the image row in each slot, -1 for none
+  };
+  const int slots = 2 * k + 1;
+  const auto load = [&](Ring& ring, int r) {
+    const int slot = r % slots;
+    Scalar* x = ring.xyz.data() + std::size_t(slot) * 3 * std::size_t(w);
+    if (ring.row[std::size_t(slot)] != r) {
+      const Vector3<Scalar>* p = cloud.points.data() + cloud.index(0, r);
+      for (int u = 0; u < w; ++u) {
+        x[u] = p[u].x();
+        x[w + u] = p[u].y();
+        x[2 * w + u] = p[u].z();
+      }
+      ring.row[std::size_t(slot)] = r;
+    }
+    return RowXyz<Scalar>{x, x + w, x + 2 * w};
+  };
+  const Scalar jump_ratio = settings.max_depth_jump_ratio;
+  // Deterministic blocks of rows per thread (parallel_reduce): a thread's ring follows its rows.
+  parallel_reduce(
+      h, threads, Ring{},
+      [&](Ring& ring, std::ptrdiff_t vi) {
+        const int v = int(vi);
+        if (v < k || v >= h - k) return scalar_row(v, 0, w);
+        if (ring.xyz.empty()) {
+          ring.xyz.resize(std::size_t(slots) * 3 * std::size_t(w));
+          ring.row.assign(std::size_t(slots), -1);
+        }
+        const RowXyz<Scalar> t = load(ring, v - k), c = load(ring, v), d = load(ring, v + k);
+        scalar_row(v, 0, k);
+        int u = k;
+        detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+          constexpr int size = detail::Pack<Scalar, decltype(bytes)::value>::size;
+          for (; u + size <= w - k; u += size)
+            organized_normals_pack<Scalar, decltype(bytes)::value>(c, t, d, u, k, jump_ratio, cc,
+                                                                   out + cloud.index(u, v));
+        });
+        scalar_row(v, u, w);
+      },
+      [](Ring&, const Ring&) {}, 8);
+}
+
 }  // namespace registration_detail
 
 /// Fills `cloud.normals` (one per pixel). Throws std::invalid_argument for settings out of range or a
@@ -164,16 +286,8 @@ void estimate_organized_normals(OrganizedCloud<Scalar>& cloud, const OrganizedNo
               cloud.points.size() == std::size_t(cloud.width) * std::size_t(cloud.height),
           "cloud", "points.size() must equal width*height");
   const int threads = registration_detail::resolve_threads(settings.num_threads);
-  const Scalar cc = registration_detail::cos_crease(settings);
   cloud.normals.resize(cloud.points.size());  // every normal is written below (reused memory: no fill)
-  // A row per item (a 640-pixel row is ~10 us of work): parallel from a few rows on.
-  registration_detail::parallel_for(
-      cloud.height, threads,
-      [&](std::ptrdiff_t v) {
-        for (int u = 0; u < cloud.width; ++u)
-          cloud.normals[cloud.index(u, int(v))] = registration_detail::organized_normal(cloud, u, int(v), settings, cc);
-      },
-      8);
+  registration_detail::organized_normals_into(cloud, settings, threads, cloud.normals.data());
 }
 
 /// The valid pixels of every `stride`-th row and column with their normals, the normals taken at full
@@ -184,11 +298,25 @@ PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, i
   require(stride >= 1, "stride", "must be >= 1");
   registration_detail::require_normal_settings_valid(settings.pixel_offset, double(settings.max_depth_jump_ratio),
                                                       double(settings.max_crease_angle));
+  require(cloud.width >= 0 && cloud.height >= 0 &&
+              cloud.points.size() == std::size_t(cloud.width) * std::size_t(cloud.height),
+          "cloud", "points.size() must equal width*height");
   const Scalar cc = registration_detail::cos_crease(settings);
   PointCloud<Scalar> out;
   const std::size_t kept = std::size_t((cloud.width + stride - 1) / stride) * std::size_t((cloud.height + stride - 1) / stride);
   out.points.reserve(kept);
   out.normals.reserve(kept);
+  if (stride == 1) {  // every pixel: the vectorized pass, then the valid ones
+    std::vector<Vector3<Scalar>> all(cloud.points.size());
+    registration_detail::organized_normals_into(cloud, settings, registration_detail::resolve_threads(settings.num_threads),
+                                                all.data());
+    for (std::size_t i = 0; i < cloud.points.size(); ++i)
+      if (cloud.points[i].z() > Scalar(0)) {
+        out.points.push_back(cloud.points[i]);
+        out.normals.push_back(all[i]);
+      }
+    return out;
+  }
   for (int v = 0; v < cloud.height; v += stride)
     for (int u = 0; u < cloud.width; u += stride) {
       if (!cloud.valid(u, v)) continue;
