@@ -354,8 +354,6 @@ class PickingPipeline {
     T_home_.translation() = s_.bin_center + Vec3(0, 0, s_.bin_height + s_.lift_clearance);
     predefined_ = home_path(beta_, PathSource::predefined);
     require(!predefined_.T_base_cameras.empty(), "settings", "the cell layout admits no predefined sensing path");
-    search_ = home_path(std::min(Scalar(M_PI / 2), beta_ * s_.search_beta_factor), PathSource::search);
-    if (search_.T_base_cameras.empty()) search_ = predefined_;
     searches_in_turn_ = search_plans();
     next_ = predefined_;
   }
@@ -482,8 +480,10 @@ class PickingPipeline {
   /// The searches in a row go through (file comment): the bin centre's, then those of the bin's
   /// quarters whose arc exists from the home point (Alg. 2 may find none toward some of them).
   std::vector<Plan> search_plans() const {
-    std::vector<Plan> out{search_};
     const Scalar beta = std::min(Scalar(M_PI / 2), beta_ * s_.search_beta_factor);
+    Plan centre = home_path(beta, PathSource::search);
+    if (centre.T_base_cameras.empty()) centre = predefined_;
+    std::vector<Plan> out{centre};
     const Scalar sx[4] = {1, -1, -1, 1}, sy[4] = {1, 1, -1, -1};
     for (int q = 0; q < 4 && s_.vary_search; ++q) {
       const Vec3 A = s_.bin_center + Vec3(sx[q] * s_.bin_length / 4, sy[q] * s_.bin_width / 4, 0);
@@ -670,7 +670,6 @@ class PickingPipeline {
     if (chosen == active_vision::no_grasped_object) {
       out.has_grasp = false;
       out.status = CycleStatus::nothing_recognized;
-      out.next = search_;
       return;
     }
     out.has_grasp = true;
@@ -944,7 +943,7 @@ class PickingPipeline {
   Pose next_B_ = Pose::Identity();
   Pose approach_from_ = Pose::Identity();
   double approach_time_ = 0;
-  Plan predefined_, search_, next_;
+  Plan predefined_, next_;
   std::vector<Vec3> failed_grasps_;  // grasp points of the grips that failed since the last success
   bool first_ = true;
   bool holding_ = false;

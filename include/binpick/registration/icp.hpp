@@ -591,7 +591,6 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
           if (gathers) {
             Mask lane;
             for (int l = 0; l < L; ++l) lane[l] = Index(l);
-            const Mask three = Mask() + Index(3);
             for (int i = 0; i < padded; i += L) {
               const Mask ok = lane + Index(i) < Index(count);
               Mask index;
@@ -604,7 +603,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
               } else {
                 for (int l = 0; l < L; ++l) index[l] = i + l < count ? Index(kept[std::size_t(first + i + l)]) : Index(0);
               }
-              const Mask element = ok & (index * three);
+              const Mask element = ok & (index * Index(3));
               rd::gather_xyz<Scalar, Bytes>(src_p, element, ok, blk.p, i);
               if (check_normals) rd::gather_xyz<Scalar, Bytes>(src_n, element, ok, blk.ns, i);
             }
@@ -638,13 +637,12 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
           }
           for (int s = count; s < padded; ++s) blk.partner[s] = -1;
           if (gathers) {
-            const Mask three = Mask() + Index(3);
             for (int i = 0; i < padded; i += L) {
               typename detail::Lanes<std::ptrdiff_t, L>::type j;
               std::memcpy(&j, blk.partner + i, sizeof j);
               const Mask index = __builtin_convertvector(j, Mask);  // < 2^31 / 3 (gathers)
               const Mask ok = index >= Index(0);
-              const Mask element = ok & (index * three);
+              const Mask element = ok & (index * Index(3));
               rd::gather_xyz<Scalar, Bytes>(tgt_p, element, ok, blk.y, i);
               rd::gather_xyz<Scalar, Bytes>(tgt_n, element, ok, blk.nt, i);
             }

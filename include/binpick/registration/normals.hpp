@@ -306,15 +306,17 @@ PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, i
   const std::size_t kept = std::size_t((cloud.width + stride - 1) / stride) * std::size_t((cloud.height + stride - 1) / stride);
   out.points.reserve(kept);
   out.normals.reserve(kept);
-  if (stride == 1) {  // every pixel: the vectorized pass, then the valid ones
-    std::vector<Vector3<Scalar>> all(cloud.points.size());
+  if (stride == 1) {  // every pixel: the vectorized pass into `out`, then the valid ones moved forward
+    out.normals.resize(cloud.points.size());
     registration_detail::organized_normals_into(cloud, settings, registration_detail::resolve_threads(settings.num_threads),
-                                                all.data());
+                                                out.normals.data());
+    std::size_t m = 0;
     for (std::size_t i = 0; i < cloud.points.size(); ++i)
       if (cloud.points[i].z() > Scalar(0)) {
         out.points.push_back(cloud.points[i]);
-        out.normals.push_back(all[i]);
+        out.normals[m++] = out.normals[i];  // m <= i: not yet overwritten
       }
+    out.normals.resize(m);
     return out;
   }
   for (int v = 0; v < cloud.height; v += stride)
