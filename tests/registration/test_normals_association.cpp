@@ -244,6 +244,11 @@ void check_depth_subsample_matches_organized() {
   RC_ASSERT(direct.points == organized.points);
   RC_ASSERT(direct.normals == organized.normals);
   RC_ASSERT(!direct.empty());
+  // Into a cloud kept from an earlier frame (another stride, so another size): the same result.
+  PointCloud<Scalar> kept = subsample_with_normals(depth.view(), cam, *rc::gen::inRange(1, 7), s);
+  subsample_with_normals(depth.view(), cam, stride, s, kept);
+  RC_ASSERT(kept.points == organized.points);
+  RC_ASSERT(kept.normals == organized.normals);
 }
 
 }  // namespace

@@ -276,6 +276,22 @@ void organized_normals_into(const OrganizedCloud<Scalar>& cloud, const Organized
 
 }  // namespace registration_detail
 
+namespace registration_detail {
+/// Moves the pixels with a measurement (z > 0) and their normals to the front of both arrays, in
+/// order, and drops the rest: an organized cloud and its normals become an unorganized one in place.
+template <typename Scalar>
+void keep_valid_in_place(std::vector<Vector3<Scalar>>& points, std::vector<Vector3<Scalar>>& normals) {
+  std::size_t m = 0;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (points[i].z() > Scalar(0)) {  // m <= i: entry i is not yet overwritten
+      points[m] = points[i];
+      normals[m++] = normals[i];
+    }
+  points.resize(m);
+  normals.resize(m);
+}
+}  // namespace registration_detail
+
 /// Fills `cloud.normals` (one per pixel). Throws std::invalid_argument for settings out of range or a
 /// cloud whose point count is not width*height.
 template <typename Scalar>
@@ -307,16 +323,11 @@ PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, i
   out.points.reserve(kept);
   out.normals.reserve(kept);
   if (stride == 1) {  // every pixel: the vectorized pass into `out`, then the valid ones moved forward
+    out.points = cloud.points;
     out.normals.resize(cloud.points.size());
     registration_detail::organized_normals_into(cloud, settings, registration_detail::resolve_threads(settings.num_threads),
                                                 out.normals.data());
-    std::size_t m = 0;
-    for (std::size_t i = 0; i < cloud.points.size(); ++i)
-      if (cloud.points[i].z() > Scalar(0)) {
-        out.points.push_back(cloud.points[i]);
-        out.normals[m++] = out.normals[i];  // m <= i: not yet overwritten
-      }
-    out.normals.resize(m);
+    registration_detail::keep_valid_in_place(out.points, out.normals);
     return out;
   }
   for (int v = 0; v < cloud.height; v += stride)
@@ -343,7 +354,20 @@ void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& c
           "image size differs from the camera's");
   registration_detail::require_normal_settings_valid(settings.pixel_offset, double(settings.max_depth_jump_ratio),
                                                       double(settings.max_crease_angle));
-  // Dense strides and one-sided edges: the whole organized cloud is needed anyway.
+  if (stride == 1) {
+    // Every pixel: the organized cloud is built in out.points' own memory, its normals in
+    // out.normals', and the valid pixels moved forward in both (no allocation once `out` is kept).
+    OrganizedCloud<Scalar> organized;
+    organized.points.swap(out.points);
+    backproject_organized(depth, camera, 1, organized);
+    out.normals.resize(organized.points.size());
+    registration_detail::organized_normals_into(organized, settings, registration_detail::resolve_threads(settings.num_threads),
+                                                out.normals.data());
+    registration_detail::keep_valid_in_place(organized.points, out.normals);
+    out.points.swap(organized.points);
+    return;
+  }
+  // Stride 2 and one-sided edges: the whole organized cloud is needed anyway.
   if (stride < 3 || settings.one_sided_at_edges) {
     out = subsample_with_normals(backproject_organized(depth, camera), stride, settings);
     return;
