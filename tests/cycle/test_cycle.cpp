@@ -126,8 +126,24 @@ struct OracleEstimator {
   const TestSensor* sensor;
   std::vector<std::thread::id> threads;  // the thread of each call
   bool blind = false;                     // recognizes nothing
+  long with_obstacles = 0, only_in_obstacles = 0;  // calls given obstacles; pixels measured only there
   cycle::EstimationResult<S> estimate(const cycle::EstimatorInput<S, Camera>& in) {
     threads.push_back(std::this_thread::get_id());
+    if (!in.obstacles.empty()) {
+      ++with_obstacles;
+      bool consistent = in.obstacles.width() == in.depth.width() && in.obstacles.height() == in.depth.height();
+      for (int v = 0; consistent && v < in.depth.height(); ++v)
+        for (int u = 0; u < in.depth.width(); ++u) {
+          const S kept = in.depth.depth(u, v), all = in.obstacles.depth(u, v);
+          consistent = consistent && !(kept > 0 && kept != all);  // the crop only removes
+          only_in_obstacles += kept == 0 && all > 0;
+        }
+      if (!consistent) {
+        cycle::EstimationResult<S> bad;
+        bad.status = cycle::EstimationStatus::invalid_input;
+        return bad;
+      }
+    }
     cycle::EstimationResult<S> r;
     if (blind) {
       r.status = cycle::EstimationStatus::no_objects;
@@ -228,6 +244,9 @@ TEST(Pipeline, EmptiesASmallPileWithProcessingDuringTheDrop) {
   }
   EXPECT_TRUE(cell.scene.parts().empty()) << "pile not emptied in " << cycles << " cycles";
   EXPECT_GE(placed, 2);
+  // The estimator saw the cropped depth and, for its gripper check, the walls and floor the crop removed.
+  EXPECT_EQ(cell.estimator.with_obstacles, long(cycles));
+  EXPECT_GT(cell.estimator.only_in_obstacles, 1000);
 }
 
 // Searches in a row aim at the bin centre, then at those of its quarters an arc reaches, then around

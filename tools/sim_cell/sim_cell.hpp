@@ -27,9 +27,7 @@ class SimGripper {
  public:
   using Scalar = Scalar_;
   SimGripper(sim::Scene<Scalar>& scene, sim::PartType type, const sim::GraspModelSettings<Scalar>& s = {})
-      : scene_(&scene), type_(type), s_(s) {
-    for (const auto& g : scene.model(type).grasps) opening_ = std::max(opening_, g.opening);
-  }
+      : scene_(&scene), type_(type), s_(s), opening_(sim::widest_opening(scene.model(type))) {}
 
   bool grip(const Isometry3<Scalar>& T_base_flange, cycle::GripperKind kind) {
     const auto outcome = sim::evaluate_pick(*scene_, type_, T_base_flange, kind, opening_, s_);
@@ -121,6 +119,7 @@ struct Cell {
     sensor = std::make_unique<Sensor>(*fake_sensor, *fake_robot);
     sim::ReferenceEstimatorSettings<S> es;
     es.num_threads = o.threads;
+    es.gripper.approach_opening = sim::widest_opening(scene.model(o.part));  // as SimGripper opens
     estimator = std::make_unique<sim::ReferenceEstimator<S, Camera>>(scene.model(o.part), es);
     gripper = std::make_unique<SimGripper<S>>(scene, o.part);
     ps.fusion.num_threads = o.threads;

@@ -39,6 +39,9 @@ struct EstimatorInput {
   /// The world's up direction in the camera frame (unit), known from the robot's kinematics and the
   /// hand-eye calibration; zero when unknown. Estimators prefer grasps approaching from above.
   Vector3<Scalar> up_camera = Vector3<Scalar>::Zero();
+  /// Optional: the same view before any region-of-interest crop (depth's size), where an estimator
+  /// that checks its grasps for collisions finds the walls and floor the crop removed; empty = `depth`.
+  DepthImageView<Scalar> obstacles;
 };
 
 /// One recognized object.

@@ -580,7 +580,10 @@ class PickingPipeline {
       fs.sensor_accuracy = sensor_->accuracy();
       FusionResult<Scalar>& fused = fused_;  // kept across cycles: no large allocation per cycle
       fuser_.fuse(views, cap.T_base_cameras_read, fs, fused);
-      if (s_.crop_to_bin) crop(fused);
+      if (s_.crop_to_bin) {
+        uncropped_ = fused.depth;  // the walls and floor, for the estimator's gripper check
+        crop(fused);
+      }
       out.fusion_s = seconds_since(t0);
       out.icp_s = std::min(out.fusion_s, fused.registration_ms * 1e-3);
       out.views = int(views.size());
@@ -591,6 +594,7 @@ class PickingPipeline {
       in.votes = fused.votes.votes.empty() ? nullptr : fused.votes.votes.data();
       in.camera = &sensor_->camera();
       in.up_camera = fused.T_base_target.linear().transpose() * Vec3::UnitZ();  // kinematics, not the scene
+      if (s_.crop_to_bin) in.obstacles = uncropped_.view();
       EstimationResult<Scalar> est = estimator_->estimate(in);
       out.estimation_s = seconds_since(t0);
       if (est.status == EstimationStatus::invalid_input) {
@@ -934,6 +938,7 @@ class PickingPipeline {
   PipelineSettings<Scalar> s_;
   Fuser<Scalar, Camera> fuser_;
   FusionResult<Scalar> fused_;  // the worker's last fusion (its buffers serve the next)
+  DepthImage<Scalar> uncropped_;  // its depth before the crop (kept across cycles too)
   detail::WorkerThread worker_;  // runs process() of run_nonstop
   std::uint64_t rng_;
   int n_ = 1;

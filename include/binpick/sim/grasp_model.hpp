@@ -63,6 +63,15 @@ struct PickOutcome {
   bool success() const { return status == PickStatus::success; }
 };
 
+/// The widest opening among a part's registered grasps [m]: what a two-finger gripper that opens to
+/// one stroke for every pick of the part must open to (the simulated cell's gripper does).
+template <typename Scalar>
+Scalar widest_opening(const PartModel<Scalar>& model) {
+  Scalar w = 0;
+  for (const auto& g : model.grasps) w = std::max(w, g.opening);
+  return w;
+}
+
 /// Judges a pick of a `type` part at T_base_grasp (gripper `kind`, jaw `opening` [m]) in `scene`.
 /// Throws std::invalid_argument naming `T_base_grasp` for an invalid pose.
 template <typename Scalar>

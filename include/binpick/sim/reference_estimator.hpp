@@ -34,9 +34,11 @@
 ///     no kept one by more than max_overlap;
 ///  6. grasp: of the grasps registered on the model, repeated under every symmetry of the part, those
 ///     approaching within max_approach_angle of the line of sight whose gripper shape
-///     (detail::gripper_samples) stays in measured free space; the one nearest to straight down (the
-///     input's up direction; the line of sight when unknown), else (flagged unreachable, grasp_clear
-///     false) the best aligned one.
+///     (detail::gripper_samples, opened to the larger of the grasp's opening and
+///     gripper.approach_opening) stays in measured free space: fewer than min_colliding_samples of
+///     its samples lie more than collision_margin behind measured points that are not the part's own
+///     surface (own_surface_margin); the one nearest to straight down (the input's up direction; the
+///     line of sight when unknown), else (flagged unreachable, grasp_clear false) the best aligned one.
 
 #include <algorithm>
 #include <chrono>
@@ -96,7 +98,15 @@ struct ReferenceEstimatorSettings {
   Scalar min_confidence = Scalar(35);          ///< [%] weaker hypotheses are dropped
   Scalar max_overlap = Scalar(0.3);            ///< share of a hypothesis' supported cells another kept one may own
   Scalar max_approach_angle = Scalar(1.05);    ///< grasp approach vs line of sight [rad] (60°)
-  Scalar collision_margin = Scalar(0.001);     ///< gripper samples this far behind a measured surface collide [m]
+  /// A gripper sample collides where the measured surface lies more than this in front of it [m]:
+  /// about the fused depth's noise on metal (single samples 1-2 mm in front of the truth are common).
+  Scalar collision_margin = Scalar(0.002);
+  /// Measured points this near the fitted part's own surface are the part, not an obstacle [m]: they
+  /// absorb the pose's error and the sensor's bleeding past the part's edges (the fingers stand 1 mm
+  /// off its faces). The price: floor and neighbours within it of the part's underside are not seen
+  /// either (exempting only faces turned toward the camera cost more picks in the cell than it saved).
+  Scalar own_surface_margin = Scalar(0.004);
+  int min_colliding_samples = 3;               ///< a grasp is blocked from this many colliding samples (one may be noise)
   int symmetry_steps = 36;                     ///< a continuous symmetry offers grasps every 2π / this [-]
   GripperGeometry<Scalar> gripper;             ///< shapes checked against the depth
   int num_threads = 1;                         ///< candidates in parallel (0 = all cores); same output for any count
@@ -206,12 +216,17 @@ class ReferenceEstimator {
     require(std::isfinite(s.max_overlap) && s.max_overlap >= 0 && s.max_overlap <= 1, "max_overlap", "must be in [0, 1]");
     require(std::isfinite(s.max_approach_angle) && s.max_approach_angle >= 0, "max_approach_angle", "must be >= 0");
     require(std::isfinite(s.collision_margin) && s.collision_margin >= 0, "collision_margin", "must be >= 0");
+    require(std::isfinite(s.own_surface_margin) && s.own_surface_margin >= 0, "own_surface_margin", "must be >= 0");
+    require(s.min_colliding_samples >= 1, "min_colliding_samples", "must be >= 1");
+    require(std::isfinite(s.gripper.approach_opening) && s.gripper.approach_opening >= 0, "gripper.approach_opening",
+            "must be >= 0");
     require(s.num_threads >= 0, "num_threads", "must be >= 0 (0 = all cores)");
     require(s.symmetry_steps >= 1, "symmetry_steps", "must be >= 1");
     for (const auto& m : models) {
       require(!m.mesh.triangles.empty(), "models", "a model has no mesh");
       models_.push_back(detail::PreparedModel<Scalar>::make(
-          m, s.model_spacing, s.voxel_size, std::max(s.coarse_distance, s.fine_distance) + Scalar(0.001)));
+          m, s.model_spacing, s.voxel_size,
+          std::max({s.coarse_distance, s.fine_distance, s.own_surface_margin}) + Scalar(0.001)));
       max_area_ = std::max(max_area_, surface_area(m.mesh));
       max_radius_ = std::max(max_radius_, m.bounding_radius);
     }
@@ -262,6 +277,9 @@ class ReferenceEstimator {
     const Camera& cam = *input.camera;
     require(input.depth.width() == cam.width() && input.depth.height() == cam.height(), "depth",
             "image size differs from the camera's");
+    require(input.obstacles.empty() ||
+                (input.obstacles.width() == input.depth.width() && input.obstacles.height() == input.depth.height()),
+            "obstacles", "image size differs from the depth's");
     ReferenceEstimation<Scalar> out;
     make_grid(input, cam, ws.grid);
     const detail::DepthGrid<Scalar>& grid = ws.grid;
@@ -596,6 +614,17 @@ class ReferenceEstimator {
     return best;
   }
 
+  /// Where the gripper check looks for obstacles: input.obstacles when given, else the depth.
+  static const DepthImageView<Scalar>& obstacles_of(const cycle::EstimatorInput<Scalar, Camera>& input) {
+    return input.obstacles.empty() ? input.depth : input.obstacles;
+  }
+
+  /// The input's up direction as a unit vector in the camera frame, zero when unknown.
+  static Vec3 unit_up(const cycle::EstimatorInput<Scalar, Camera>& input) {
+    const Scalar norm = input.up_camera.norm();
+    return input.up_camera.allFinite() && norm > Scalar(0.5) ? Vec3(input.up_camera / norm) : Vec3::Zero();
+  }
+
   /// An n-fold prism seen along its axis (a hex nut from above) shows a face whose depth fixes
   /// everything but the turn about the axis, and ICP leaves an unobservable direction alone: the turn
   /// comes from where the segment's outline has its corners (the n-th angular harmonic of its points
@@ -778,9 +807,8 @@ class ReferenceEstimator {
                     Isometry3<Scalar>& T_camera_grasp, RecognitionDetail<Scalar>& d) const {
     const auto& grasps = pm.model.grasps;
     const std::vector<Mat3> syms = detail::symmetry_rotations<Scalar>(pm.symmetry, s_.symmetry_steps);
-    const Scalar up_norm = input.up_camera.norm();
-    const bool have_up = input.up_camera.allFinite() && up_norm > Scalar(0.5);
-    const Vec3 down = have_up ? Vec3(-input.up_camera / up_norm) : Vec3::Zero();
+    const Vec3 down = -unit_up(input);
+    const bool have_up = !down.isZero();
     struct Option {
       Isometry3<Scalar> T_camera_grasp;
       Scalar key;       // angle to the preferred approach [rad]
@@ -812,7 +840,7 @@ class ReferenceEstimator {
     const Option* chosen = nullptr;
     for (const Option& o : options) {
       if (!o.in_sight) break;
-      if (gripper_collides(input, cam, o.T_camera_grasp, pm.model.gripper, grasps[o.grasp].opening)) continue;
+      if (gripper_collides(input, cam, pm, T_camera_object, o.T_camera_grasp, grasps[o.grasp].opening)) continue;
       chosen = &o;
       break;
     }
@@ -822,14 +850,25 @@ class ReferenceEstimator {
     T_camera_grasp = chosen->T_camera_grasp;
   }
 
+  /// Whether the gripper at T_camera_grasp stands behind measured surfaces that are not the part's
+  /// own (collision_margin, own_surface_margin) at min_colliding_samples or more of its samples.
   bool gripper_collides(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
-                        const Isometry3<Scalar>& T_camera_grasp, cycle::GripperKind kind, Scalar opening) const {
-    for (const Vec3& q : detail::gripper_samples(s_.gripper, kind, opening, Scalar(0.002))) {
+                        const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_camera_object,
+                        const Isometry3<Scalar>& T_camera_grasp, Scalar opening) const {
+    const Isometry3<Scalar> T_object_camera = T_camera_object.inverse(Eigen::Isometry);
+    const Scalar jaw = std::max(opening, s_.gripper.approach_opening);
+    const DepthImageView<Scalar>& scene = obstacles_of(input);
+    int colliding = 0;
+    for (const Vec3& q : detail::gripper_samples(s_.gripper, pm.model.gripper, jaw, Scalar(0.002))) {
       const Vec3 p = T_camera_grasp * q;
       const auto px = cam.project(p);
       if (!px) continue;
-      const Scalar z = input.depth.depth(int(std::lround(px->x())), int(std::lround(px->y())));
-      if (z > Scalar(0) && z < p.z() - s_.collision_margin) return true;  // behind a measured surface
+      const int u = int(std::lround(px->x())), v = int(std::lround(px->y()));
+      const Scalar z = scene.depth(u, v);
+      if (!(z > Scalar(0) && z < p.z() - s_.collision_margin)) continue;  // not behind a measured surface
+      const auto m = cam.backproject(Scalar(u), Scalar(v), z);
+      if (pm.association->partner(T_object_camera * m.template cast<Scalar>(), s_.own_surface_margin) >= 0) continue;
+      if (++colliding >= s_.min_colliding_samples) return true;
     }
     return false;
   }

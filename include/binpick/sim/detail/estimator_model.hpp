@@ -33,6 +33,10 @@ struct GripperGeometry {
   Scalar finger_length = Scalar(0.030);     ///< along −z from the finger tip [m]
   Scalar finger_clearance = Scalar(0.001);  ///< extra opening on each side beyond the grasp's opening [m]
   Scalar tip_depth = Scalar(0);             ///< finger tips sit this far past the grasp point along +z [m]
+  /// Jaw opening while approaching [m]: a gripper that opens to its stroke before each pick has its
+  /// fingers this far apart (plus finger_clearance) whatever the grasp; 0 = each grasp's own opening
+  /// (a gripper that pre-shapes). The opening checked is the larger of this and the grasp's.
+  Scalar approach_opening = Scalar(0);
   Scalar cup_radius = Scalar(0.005);        ///< vacuum cup [m]
   Scalar cup_length = Scalar(0.040);        ///< cup and stem along −z from the grasp point [m]
 };
@@ -157,7 +161,8 @@ class VoxelAssociation {
 
   /// `target`: model samples with normals; `voxel` [m]; `margin` [m] beyond the samples' bounds
   /// (queries farther out have no partner).
-  VoxelAssociation(const PointCloud<Scalar>& target, Scalar voxel, Scalar margin) : target_(target), voxel_(voxel) {
+  VoxelAssociation(const PointCloud<Scalar>& target, Scalar voxel, Scalar margin)
+      : target_(target), voxel_(voxel), inv_voxel_(Scalar(1) / voxel) {
     require(!target.points.empty() && target.has_normals(), "target", "needs points with normals");
     require(voxel > Scalar(0), "voxel", "must be > 0");
     Vector3<Scalar> lo = target.points.front(), hi = lo;
@@ -185,21 +190,25 @@ class VoxelAssociation {
 
   void associate(const std::vector<Vector3<Scalar>>& queries, Scalar max_distance, int /*num_threads*/,
                  std::vector<std::ptrdiff_t>& partners) const {
-    partners.assign(queries.size(), -1);
-    const Scalar max_d2 = max_distance * max_distance, inv = Scalar(1) / voxel_;
-    for (std::size_t q = 0; q < queries.size(); ++q) {
-      const Vector3<Scalar> r = (queries[q] - origin_) * inv;
-      if (!(r.minCoeff() >= Scalar(0))) continue;
-      const int i = int(r.x()), j = int(r.y()), k = int(r.z());
-      if (i >= dims_[0] || j >= dims_[1] || k >= dims_[2]) continue;
-      const std::int32_t n = nearest_[(std::size_t(k) * std::size_t(dims_[1]) + std::size_t(j)) * std::size_t(dims_[0]) + std::size_t(i)];
-      if (n >= 0 && (target_.points[std::size_t(n)] - queries[q]).squaredNorm() <= max_d2) partners[q] = n;
-    }
+    partners.resize(queries.size());
+    for (std::size_t q = 0; q < queries.size(); ++q) partners[q] = partner(queries[q], max_distance);
+  }
+
+  /// The sample stored for the voxel of `q` when it lies within max_distance of q, else -1.
+  std::ptrdiff_t partner(const Vector3<Scalar>& q, Scalar max_distance) const {
+    const Vector3<Scalar> r = (q - origin_) * inv_voxel_;
+    // Compared as floats first: any query, however far (or NaN), converts to int only inside the grid.
+    if (!(r.minCoeff() >= Scalar(0) && r.x() < Scalar(dims_[0]) && r.y() < Scalar(dims_[1]) && r.z() < Scalar(dims_[2])))
+      return -1;
+    const int i = int(r.x()), j = int(r.y()), k = int(r.z());
+    if (i >= dims_[0] || j >= dims_[1] || k >= dims_[2]) return -1;
+    const std::int32_t n = nearest_[(std::size_t(k) * std::size_t(dims_[1]) + std::size_t(j)) * std::size_t(dims_[0]) + std::size_t(i)];
+    return n >= 0 && (target_.points[std::size_t(n)] - q).squaredNorm() <= max_distance * max_distance ? n : -1;
   }
 
  private:
   PointCloud<Scalar> target_;
-  Scalar voxel_;
+  Scalar voxel_, inv_voxel_;
   Vector3<Scalar> origin_;
   int dims_[3] = {0, 0, 0};
   std::vector<std::int32_t> nearest_;
