@@ -274,9 +274,6 @@ void organized_normals_into(const OrganizedCloud<Scalar>& cloud, const Organized
       [](Ring&, const Ring&) {}, 8);
 }
 
-}  // namespace registration_detail
-
-namespace registration_detail {
 /// Moves the pixels with a measurement (z > 0) and their normals to the front of both arrays, in
 /// order, and drops the rest: an organized cloud and its normals become an unorganized one in place.
 template <typename Scalar>
@@ -319,9 +316,6 @@ PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, i
           "cloud", "points.size() must equal width*height");
   const Scalar cc = registration_detail::cos_crease(settings);
   PointCloud<Scalar> out;
-  const std::size_t kept = std::size_t((cloud.width + stride - 1) / stride) * std::size_t((cloud.height + stride - 1) / stride);
-  out.points.reserve(kept);
-  out.normals.reserve(kept);
   if (stride == 1) {  // every pixel: the vectorized pass into `out`, then the valid ones moved forward
     out.points = cloud.points;
     out.normals.resize(cloud.points.size());
@@ -330,6 +324,9 @@ PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, i
     registration_detail::keep_valid_in_place(out.points, out.normals);
     return out;
   }
+  const std::size_t kept = std::size_t((cloud.width + stride - 1) / stride) * std::size_t((cloud.height + stride - 1) / stride);
+  out.points.reserve(kept);
+  out.normals.reserve(kept);
   for (int v = 0; v < cloud.height; v += stride)
     for (int u = 0; u < cloud.width; u += stride) {
       if (!cloud.valid(u, v)) continue;

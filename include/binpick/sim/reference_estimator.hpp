@@ -838,9 +838,15 @@ class ReferenceEstimator {
       return x.in_sight != y.in_sight ? x.in_sight : x.key < y.key;
     });
     const Option* chosen = nullptr;
+    const Isometry3<Scalar> T_object_camera = T_camera_object.inverse(Eigen::Isometry);
+    std::vector<std::vector<Vec3>> gripper(grasps.size());  // its samples per grasp, made when first needed
     for (const Option& o : options) {
       if (!o.in_sight) break;
-      if (gripper_collides(input, cam, pm, T_camera_object, o.T_camera_grasp, grasps[o.grasp].opening)) continue;
+      std::vector<Vec3>& samples = gripper[o.grasp];
+      if (samples.empty())
+        samples = detail::gripper_samples(s_.gripper, pm.model.gripper,
+                                          std::max(grasps[o.grasp].opening, s_.gripper.approach_opening), Scalar(0.002));
+      if (gripper_collides(input, cam, pm, T_object_camera, o.T_camera_grasp, samples)) continue;
       chosen = &o;
       break;
     }
@@ -850,16 +856,15 @@ class ReferenceEstimator {
     T_camera_grasp = chosen->T_camera_grasp;
   }
 
-  /// Whether the gripper at T_camera_grasp stands behind measured surfaces that are not the part's
-  /// own (collision_margin, own_surface_margin) at min_colliding_samples or more of its samples.
+  /// Whether the gripper (its `samples`, grasp frame) at T_camera_grasp stands behind measured surfaces
+  /// that are not the part's own (collision_margin, own_surface_margin) at min_colliding_samples or
+  /// more of its samples.
   bool gripper_collides(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
-                        const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_camera_object,
-                        const Isometry3<Scalar>& T_camera_grasp, Scalar opening) const {
-    const Isometry3<Scalar> T_object_camera = T_camera_object.inverse(Eigen::Isometry);
-    const Scalar jaw = std::max(opening, s_.gripper.approach_opening);
+                        const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_object_camera,
+                        const Isometry3<Scalar>& T_camera_grasp, const std::vector<Vec3>& samples) const {
     const DepthImageView<Scalar>& scene = obstacles_of(input);
     int colliding = 0;
-    for (const Vec3& q : detail::gripper_samples(s_.gripper, pm.model.gripper, jaw, Scalar(0.002))) {
+    for (const Vec3& q : samples) {
       const Vec3 p = T_camera_grasp * q;
       const auto px = cam.project(p);
       if (!px) continue;

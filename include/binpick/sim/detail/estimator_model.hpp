@@ -162,7 +162,7 @@ class VoxelAssociation {
   /// `target`: model samples with normals; `voxel` [m]; `margin` [m] beyond the samples' bounds
   /// (queries farther out have no partner).
   VoxelAssociation(const PointCloud<Scalar>& target, Scalar voxel, Scalar margin)
-      : target_(target), voxel_(voxel), inv_voxel_(Scalar(1) / voxel) {
+      : target_(target), inv_voxel_(Scalar(1) / voxel) {
     require(!target.points.empty() && target.has_normals(), "target", "needs points with normals");
     require(voxel > Scalar(0), "voxel", "must be > 0");
     Vector3<Scalar> lo = target.points.front(), hi = lo;
@@ -208,7 +208,7 @@ class VoxelAssociation {
 
  private:
   PointCloud<Scalar> target_;
-  Scalar voxel_, inv_voxel_;
+  Scalar inv_voxel_;
   Vector3<Scalar> origin_;
   int dims_[3] = {0, 0, 0};
   std::vector<std::int32_t> nearest_;
