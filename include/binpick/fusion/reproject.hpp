@@ -64,11 +64,10 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
                                                        const PinholeCamera<Scalar>& target, Scalar* plane, int row_begin,
                                                        int row_end) {
   const int w = source.width();
-  const Scalar scale = source.metres_per_unit();
-  std::size_t valid = 0;
   // Homogeneous pixel h = z * (M r) + m with M = K_t R, m = K_t t and r = (x/z, y/z, 1). Per row,
-  // first a branch-free pass (vectorized across pixels) computes each pixel's target index — invalid
-  // points get the index `none`, one past the image — then a scatter pass does the z-test.
+  // first a branch-free pass (vectorized across pixels, decoding the row as it goes) computes each
+  // pixel's target index — invalid points get the index `none`, one past the image — then a scatter
+  // pass does the z-test.
   Matrix3<Scalar> K = Matrix3<Scalar>::Identity();
   K(0, 0) = target.fx();
   K(1, 1) = target.fy();
@@ -82,55 +81,93 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
   using V = typename P::type;
   using Mask = decltype(V() < V());  // signed integer lanes as wide as Scalar
   using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
+  using Raw = typename Lanes<T, P::size>::type;
   const Index none = Index(std::size_t(tw) * std::size_t(th));
   const int wpad = (w + P::size - 1) / P::size * P::size;
+  const int wfull = w / P::size * P::size;  // packs read straight from the row; the rest from `tail`
   std::vector<Index> index(static_cast<std::size_t>(wpad));
-  std::vector<Scalar> depth(static_cast<std::size_t>(wpad)), zrow(static_cast<std::size_t>(wpad), Scalar(0));
-  const V m00 = P::splat(M(0, 0)), m01 = P::splat(M(0, 1)), m02 = P::splat(M(0, 2));
-  const V m10 = P::splat(M(1, 0)), m11 = P::splat(M(1, 1)), m12 = P::splat(M(1, 2));
-  const V m20 = P::splat(M(2, 0)), m21 = P::splat(M(2, 1)), m22 = P::splat(M(2, 2));
+  std::vector<Scalar> depth(static_cast<std::size_t>(wpad));
+  T tail[P::size];
+  Scalar spare[64];  // the scatter's sink for invalid points
+  std::fill(spare, spare + 64, Scalar(0));
+  const V vscale = P::splat(source.metres_per_unit()), vinf = P::splat(std::numeric_limits<Scalar>::infinity());
+  const V m00 = P::splat(M(0, 0)), m10 = P::splat(M(1, 0)), m20 = P::splat(M(2, 0));
   const V mx = P::splat(m.x()), my = P::splat(m.y()), mz = P::splat(m.z());
   const V vzero = P::splat(Scalar(0)), vone = P::splat(Scalar(1)), vhalf = P::splat(Scalar(0.5));
   const V vumax = P::splat(umax), vvmax = P::splat(vmax), vmhalf = P::splat(Scalar(-0.5));
   const V vtw1 = P::splat(Scalar(tw - 1)), vth1 = P::splat(Scalar(th - 1));
+  Mask valid_lanes = Mask() & Index(0);
+  // One pack of pixels from column u: raw depths `raw`, ray x, and the row's part of M r (b*).
+  const auto pack = [&](int u, const Raw& raw, const V& x, const V& bx, const V& by, const V& bz)
+                        BINPICK_SIMD_INLINE_LAMBDA {
+    const V zs = __builtin_convertvector(raw, V) * vscale;
+    const auto z_ok = (zs > vzero) & (zs < vinf);  // NaN fails both
+    valid_lanes -= z_ok;                           // -1 per valid lane
+    const V z = P::select(z_ok, zs, vzero);
+    const V ax = m00 * x + bx, ay = m10 * x + by, az = m20 * x + bz;
+    const V hz = z * az + mz;
+    const auto in_front = hz > vzero;
+    const V inv = vone / P::select(in_front, hz, vone);
+    const V pu = (z * ax + mx) * inv;
+    const V pv = (z * ay + my) * inv;
+    const auto ok = z_ok & in_front & (pu >= vmhalf) & (pu < vumax) & (pv >= vmhalf) & (pv < vvmax);
+    // Truncation of (p + 0.5) rounds to the nearest pixel for p >= -0.5; clamped first so the
+    // conversion is defined for any value (NaN fails `>= 0` and becomes 0: both index lanes are
+    // computed before the select, and an INT_MIN lane would overflow in iv * tw).
+    V fu = pu + vhalf, fv = pv + vhalf;
+    fu = P::select(fu >= vzero, P::select(fu > vtw1, vtw1, fu), vzero);
+    fv = P::select(fv >= vzero, P::select(fv > vth1, vth1, fv), vzero);
+    const Mask iu = __builtin_convertvector(fu, Mask), iv = __builtin_convertvector(fv, Mask);
+    const Mask idx = ok ? Mask(iv * Index(tw) + iu) : Mask(iu * Index(0) + none);
+    std::memcpy(&index[std::size_t(u)], &idx, sizeof idx);
+    P::store(&depth[std::size_t(u)], hz);
+  };
   for (int v = row_begin; v < row_end; ++v) {
-    valid += decode_row(source.template row<T>(v), w, scale, Scalar(0), zrow.data());
-    const Scalar* rx = rays.separable ? rays.x.data() : rays.x.data() + std::size_t(v) * w;
-    const Scalar* ry = rays.separable ? nullptr : rays.y.data() + std::size_t(v) * w;
-    const V ry_row = P::splat(rays.separable ? rays.y[std::size_t(v)] : Scalar(0));
-    for (int u = 0; u < wpad; u += P::size) {
-      const V z = P::load(&zrow[std::size_t(u)]);
-      const V x = P::load(rx + u);  // ray tables are padded by kRayPad
-      const V y = ry ? P::load(ry + u) : ry_row;
-      const V ax = m00 * x + m01 * y + m02;
-      const V ay = m10 * x + m11 * y + m12;
-      const V az = m20 * x + m21 * y + m22;
-      const V hz = z * az + mz;
-      const auto in_front = hz > vzero;
-      const V inv = vone / P::select(in_front, hz, vone);
-      const V pu = (z * ax + mx) * inv;
-      const V pv = (z * ay + my) * inv;
-      const auto ok = (z > vzero) & in_front & (pu >= vmhalf) & (pu < vumax) & (pv >= vmhalf) & (pv < vvmax);
-      // Truncation of (p + 0.5) rounds to the nearest pixel for p >= -0.5; clamped first so the
-      // conversion is defined for any value (NaN fails `>= 0` and becomes 0: both index lanes are
-      // computed before the select, and an INT_MIN lane would overflow in iv * tw).
-      V fu = pu + vhalf, fv = pv + vhalf;
-      fu = P::select(fu >= vzero, P::select(fu > vtw1, vtw1, fu), vzero);
-      fv = P::select(fv >= vzero, P::select(fv > vth1, vth1, fv), vzero);
-      const Mask iu = __builtin_convertvector(fu, Mask), iv = __builtin_convertvector(fv, Mask);
-      const Mask idx = ok ? Mask(iv * Index(tw) + iu) : Mask(iu * Index(0) + none);
-      std::memcpy(&index[std::size_t(u)], &idx, sizeof idx);
-      P::store(&depth[std::size_t(u)], hz);
-    }
-    // Scatter with the z-test. Invalid points are skipped, not sent to a spare slot: their
-    // read-min-write chain through one address cost 2-3 ms a view at 1280 x 1024 (a third of a metal
-    // view is holes), and holes come in runs, so the branch predicts well.
+    const T* row = source.template row<T>(v);
+    const auto row_pass = [&](const Scalar* rx, const Scalar* ry) BINPICK_SIMD_INLINE_LAMBDA {
+      // Separable rays (ry null): y is the row's, so M r's y and constant terms are one per row.
+      const Scalar yr = rays.separable ? rays.y[std::size_t(v)] : Scalar(0);
+      const V bx0 = P::splat(M(0, 1) * yr + M(0, 2)), by0 = P::splat(M(1, 1) * yr + M(1, 2)),
+              bz0 = P::splat(M(2, 1) * yr + M(2, 2));
+      const V m01 = P::splat(M(0, 1)), m11 = P::splat(M(1, 1)), m21 = P::splat(M(2, 1));
+      const auto one_pack = [&](int u, const Raw& raw) BINPICK_SIMD_INLINE_LAMBDA {
+        const V x = P::load(rx + u);  // ray tables are padded by kRayPad
+        if (ry) {
+          const V y = P::load(ry + u);
+          pack(u, raw, x, m01 * y + bx0, m11 * y + by0, m21 * y + bz0);  // yr = 0 here
+        } else {
+          pack(u, raw, x, bx0, by0, bz0);
+        }
+      };
+      for (int u = 0; u < wfull; u += P::size) {
+        Raw raw;
+        std::memcpy(&raw, row + u, sizeof raw);
+        one_pack(u, raw);
+      }
+      if (wfull < w) {
+        std::fill(tail, tail + P::size, T(0));
+        std::copy(row + wfull, row + w, tail);
+        Raw raw;
+        std::memcpy(&raw, tail, sizeof raw);
+        one_pack(wfull, raw);
+      }
+    };
+    if (rays.separable)
+      row_pass(rays.x.data(), nullptr);
+    else
+      row_pass(rays.x.data() + std::size_t(v) * w, rays.y.data() + std::size_t(v) * w);
+    // Scatter with the z-test, without a branch: invalid points go to one of 64 spare slots (one
+    // shared slot made a read-min-write chain through one address, 2-3 ms a view at 1280 x 1024).
+    // On simulated metal views, whose holes come in runs, a skip branch was as fast (3 % either way
+    // by ISA); the sink does not depend on the sensor's hole pattern.
     for (int u = 0; u < w; ++u) {
       const Index i = index[std::size_t(u)];
-      if (i == none) continue;
-      plane[i] = std::min(plane[i], depth[std::size_t(u)]);  // branch-free: z-test outcomes are random
+      Scalar* p = i == none ? spare + (u & 63) : plane + i;
+      *p = std::min(*p, depth[std::size_t(u)]);  // branch-free: z-test outcomes are random
     }
   }
+  std::size_t valid = 0;
+  for (int l = 0; l < P::size; ++l) valid += std::size_t(valid_lanes[l]);
   return valid;
 }
 
