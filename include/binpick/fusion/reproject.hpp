@@ -96,13 +96,13 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
   const V vzero = P::splat(Scalar(0)), vone = P::splat(Scalar(1)), vhalf = P::splat(Scalar(0.5));
   const V vumax = P::splat(umax), vvmax = P::splat(vmax), vmhalf = P::splat(Scalar(-0.5));
   const V vtw1 = P::splat(Scalar(tw - 1)), vth1 = P::splat(Scalar(th - 1));
-  Mask valid_lanes = Mask() & Index(0);
+  Mask valid_lanes = Mask();  // valid pixels per lane (from zero)
   // One pack of pixels from column u: raw depths `raw`, ray x, and the row's part of M r (b*).
   const auto pack = [&](int u, const Raw& raw, const V& x, const V& bx, const V& by, const V& bz)
                         BINPICK_SIMD_INLINE_LAMBDA {
     const V zs = __builtin_convertvector(raw, V) * vscale;
     const auto z_ok = (zs > vzero) & (zs < vinf);  // NaN fails both
-    valid_lanes -= z_ok;                           // -1 per valid lane
+    valid_lanes -= z_ok;                           // a set lane is -1
     const V z = P::select(z_ok, zs, vzero);
     const V ax = m00 * x + bx, ay = m10 * x + by, az = m20 * x + bz;
     const V hz = z * az + mz;
