@@ -276,8 +276,8 @@ struct OpaquePinhole {
 
 // Differential: the vectorized pinhole reprojection against the generic path, on random poses,
 // widths that leave a tail after the last pack, uint16 and float depths with holes, NaN and inf, at
-// every SIMD level. Both round each point to the nearest pixel; only points within float rounding of
-// a pixel border may land one pixel apart.
+// every SIMD level, from a pinhole and from a distorted source. Both round each point to the nearest
+// pixel; only points within float rounding of a pixel border may land one pixel apart.
 template <typename Scalar>
 void pinhole_kernel_matches_generic_path() {
   const int w = *rc::gen::inRange(25, 90), h = *rc::gen::inRange(16, 40);
@@ -301,11 +301,19 @@ void pinhole_kernel_matches_generic_path() {
                 Eigen::AngleAxis<Scalar>(Scalar(angle(rng)), Vector3<Scalar>::UnitY()) *
                 Eigen::AngleAxis<Scalar>(Scalar(angle(rng)), Vector3<Scalar>::UnitZ())).toRotationMatrix();
   T.translation() = Vector3<Scalar>(Scalar(shift(rng)), Scalar(shift(rng)), Scalar(shift(rng)));
-  const DepthImage<Scalar> generic = reproject(view, cam, T, OpaquePinhole<Scalar>{cam});
+  // A distorted source has one ray per pixel (the kernel's non-separable rows), a pinhole one a ray
+  // per row and column.
+  const bool distorted = *rc::gen::arbitrary<bool>();
+  const BrownConradyCamera<Scalar> lens(cam.fx(), cam.fy(), cam.cx(), cam.cy(), w, h,
+                                        {Scalar(-0.08), Scalar(0.01), Scalar(0.001), Scalar(-0.0005), Scalar(0)});
+  const auto reproject_into = [&](const auto& target) {
+    return distorted ? reproject(view, lens, T, target) : reproject(view, cam, T, target);
+  };
+  const DepthImage<Scalar> generic = reproject_into(OpaquePinhole<Scalar>{cam});
   RC_ASSERT(generic.valid_count() > std::size_t(0));
   for (const SimdLevel level : available_simd_levels()) {
     const test::SimdCap cap(level);
-    const DepthImage<Scalar> fast = reproject(view, cam, T, cam);
+    const DepthImage<Scalar> fast = reproject_into(cam);
     std::size_t differ = 0;
     for (std::size_t i = 0; i < fast.storage().size(); ++i) {
       const Scalar a = fast.storage()[i], b = generic.storage()[i];

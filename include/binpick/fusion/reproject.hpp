@@ -58,7 +58,9 @@ BINPICK_SIMD_INLINE std::size_t decode_row(const T* __restrict row, int w, Scala
 }
 
 /// The pinhole-target case of reproject_rows with packs of `Bytes` (inlined into simd_call's choice).
-template <typename Scalar, typename T, int Bytes>
+/// `PerPixelY`: the rays are not separable (rays.y holds one y per pixel, not one per row); a template
+/// argument, not a test in the loop, which cost 8 % at 128-bit packs.
+template <typename Scalar, typename T, int Bytes, bool PerPixelY>
 BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scalar>& source, const RayTable<Scalar>& rays,
                                                        const Isometry3<Scalar>& T_target_source,
                                                        const PinholeCamera<Scalar>& target, Scalar* plane, int row_begin,
@@ -96,66 +98,52 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
   const V vzero = P::splat(Scalar(0)), vone = P::splat(Scalar(1)), vhalf = P::splat(Scalar(0.5));
   const V vumax = P::splat(umax), vvmax = P::splat(vmax), vmhalf = P::splat(Scalar(-0.5));
   const V vtw1 = P::splat(Scalar(tw - 1)), vth1 = P::splat(Scalar(th - 1));
+  const V m01 = P::splat(M(0, 1)), m11 = P::splat(M(1, 1)), m21 = P::splat(M(2, 1));
   Mask valid_lanes = Mask();  // valid pixels per lane (from zero)
-  // One pack of pixels from column u: raw depths `raw`, ray x, and the row's part of M r (b*).
-  const auto pack = [&](int u, const Raw& raw, const V& x, const V& bx, const V& by, const V& bz)
-                        BINPICK_SIMD_INLINE_LAMBDA {
-    const V zs = __builtin_convertvector(raw, V) * vscale;
-    const auto z_ok = (zs > vzero) & (zs < vinf);  // NaN fails both
-    valid_lanes -= z_ok;                           // a set lane is -1
-    const V z = P::select(z_ok, zs, vzero);
-    const V ax = m00 * x + bx, ay = m10 * x + by, az = m20 * x + bz;
-    const V hz = z * az + mz;
-    const auto in_front = hz > vzero;
-    const V inv = vone / P::select(in_front, hz, vone);
-    const V pu = (z * ax + mx) * inv;
-    const V pv = (z * ay + my) * inv;
-    const auto ok = z_ok & in_front & (pu >= vmhalf) & (pu < vumax) & (pv >= vmhalf) & (pv < vvmax);
-    // Truncation of (p + 0.5) rounds to the nearest pixel for p >= -0.5; clamped first so the
-    // conversion is defined for any value (NaN fails `>= 0` and becomes 0: both index lanes are
-    // computed before the select, and an INT_MIN lane would overflow in iv * tw).
-    V fu = pu + vhalf, fv = pv + vhalf;
-    fu = P::select(fu >= vzero, P::select(fu > vtw1, vtw1, fu), vzero);
-    fv = P::select(fv >= vzero, P::select(fv > vth1, vth1, fv), vzero);
-    const Mask iu = __builtin_convertvector(fu, Mask), iv = __builtin_convertvector(fv, Mask);
-    const Mask idx = ok ? Mask(iv * Index(tw) + iu) : Mask(iu * Index(0) + none);
-    std::memcpy(&index[std::size_t(u)], &idx, sizeof idx);
-    P::store(&depth[std::size_t(u)], hz);
-  };
   for (int v = row_begin; v < row_end; ++v) {
     const T* row = source.template row<T>(v);
-    const auto row_pass = [&](const Scalar* rx, const Scalar* ry) BINPICK_SIMD_INLINE_LAMBDA {
-      // Separable rays (ry null): y is the row's, so M r's y and constant terms are one per row.
-      const Scalar yr = rays.separable ? rays.y[std::size_t(v)] : Scalar(0);
-      const V bx0 = P::splat(M(0, 1) * yr + M(0, 2)), by0 = P::splat(M(1, 1) * yr + M(1, 2)),
-              bz0 = P::splat(M(2, 1) * yr + M(2, 2));
-      const V m01 = P::splat(M(0, 1)), m11 = P::splat(M(1, 1)), m21 = P::splat(M(2, 1));
-      const auto one_pack = [&](int u, const Raw& raw) BINPICK_SIMD_INLINE_LAMBDA {
-        const V x = P::load(rx + u);  // ray tables are padded by kRayPad
-        if (ry) {
-          const V y = P::load(ry + u);
-          pack(u, raw, x, m01 * y + bx0, m11 * y + by0, m21 * y + bz0);  // yr = 0 here
-        } else {
-          pack(u, raw, x, bx0, by0, bz0);
-        }
-      };
-      for (int u = 0; u < wfull; u += P::size) {
-        Raw raw;
-        std::memcpy(&raw, row + u, sizeof raw);
-        one_pack(u, raw);
+    // Separable rays: y is the row's, so M r's y and constant terms are one per row (b*0); otherwise
+    // each pixel has its own y (ry) and the row terms are the constant ones.
+    const Scalar* rx = rays.x.data() + (PerPixelY ? std::size_t(v) * w : 0);  // padded by kRayPad
+    const Scalar* ry = PerPixelY ? rays.y.data() + std::size_t(v) * w : nullptr;
+    const Scalar yr = PerPixelY ? Scalar(0) : rays.y[std::size_t(v)];
+    const V bx0 = P::splat(M(0, 1) * yr + M(0, 2)), by0 = P::splat(M(1, 1) * yr + M(1, 2)),
+            bz0 = P::splat(M(2, 1) * yr + M(2, 2));
+    if (wfull < w) {  // the last partial pack is read from a zero-padded copy (0 = invalid)
+      std::fill(tail, tail + P::size, T(0));
+      std::copy(row + wfull, row + w, tail);
+    }
+    for (int u = 0; u < wpad; u += P::size) {
+      Raw raw;
+      std::memcpy(&raw, u < wfull ? row + u : tail, sizeof raw);
+      const V zs = __builtin_convertvector(raw, V) * vscale;
+      const auto z_ok = (zs > vzero) & (zs < vinf);  // NaN fails both
+      valid_lanes -= z_ok;                           // a set lane is -1
+      const V z = P::select(z_ok, zs, vzero);
+      const V x = P::load(rx + u);
+      V bx = bx0, by = by0, bz = bz0;
+      if constexpr (PerPixelY) {
+        const V y = P::load(ry + u);
+        bx += m01 * y, by += m11 * y, bz += m21 * y;
       }
-      if (wfull < w) {
-        std::fill(tail, tail + P::size, T(0));
-        std::copy(row + wfull, row + w, tail);
-        Raw raw;
-        std::memcpy(&raw, tail, sizeof raw);
-        one_pack(wfull, raw);
-      }
-    };
-    if (rays.separable)
-      row_pass(rays.x.data(), nullptr);
-    else
-      row_pass(rays.x.data() + std::size_t(v) * w, rays.y.data() + std::size_t(v) * w);
+      const V ax = m00 * x + bx, ay = m10 * x + by, az = m20 * x + bz;
+      const V hz = z * az + mz;
+      const auto in_front = hz > vzero;
+      const V inv = vone / P::select(in_front, hz, vone);
+      const V pu = (z * ax + mx) * inv;
+      const V pv = (z * ay + my) * inv;
+      const auto ok = z_ok & in_front & (pu >= vmhalf) & (pu < vumax) & (pv >= vmhalf) & (pv < vvmax);
+      // Truncation of (p + 0.5) rounds to the nearest pixel for p >= -0.5; clamped first so the
+      // conversion is defined for any value (NaN fails `>= 0` and becomes 0: both index lanes are
+      // computed before the select, and an INT_MIN lane would overflow in iv * tw).
+      V fu = pu + vhalf, fv = pv + vhalf;
+      fu = P::select(fu >= vzero, P::select(fu > vtw1, vtw1, fu), vzero);
+      fv = P::select(fv >= vzero, P::select(fv > vth1, vth1, fv), vzero);
+      const Mask iu = __builtin_convertvector(fu, Mask), iv = __builtin_convertvector(fv, Mask);
+      const Mask idx = ok ? Mask(iv * Index(tw) + iu) : Mask(iu * Index(0) + none);
+      std::memcpy(&index[std::size_t(u)], &idx, sizeof idx);
+      P::store(&depth[std::size_t(u)], hz);
+    }
     // Scatter with the z-test, without a branch: invalid points go to one of 64 spare slots (one
     // shared slot made a read-min-write chain through one address, 2-3 ms a view at 1280 x 1024).
     // On simulated metal views, whose holes come in runs, a skip branch was as fast (3 % either way
@@ -181,8 +169,10 @@ std::size_t reproject_rows(const DepthImageView<Scalar>& source, const RayTable<
   std::size_t valid = 0;
   if constexpr (std::is_same<TargetCamera, PinholeCamera<Scalar>>::value) {
     simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
-      valid = reproject_rows_pinhole<Scalar, T, decltype(bytes)::value>(source, rays, T_target_source, target, plane,
-                                                                         row_begin, row_end);
+      constexpr int B = decltype(bytes)::value;
+      valid = rays.separable
+                  ? reproject_rows_pinhole<Scalar, T, B, false>(source, rays, T_target_source, target, plane, row_begin, row_end)
+                  : reproject_rows_pinhole<Scalar, T, B, true>(source, rays, T_target_source, target, plane, row_begin, row_end);
     });
   } else {
     const int w = source.width();
