@@ -11,7 +11,7 @@
 #include <type_traits>
 
 #if defined(__x86_64__)
-#include <immintrin.h>  // declares the gather builtins (Pack::gather)
+#include <immintrin.h>  // declares the AVX builtins (Pack::sqrt) in builds without AVX
 #endif
 
 #include "binpick/core/simd_level.hpp"
@@ -80,7 +80,8 @@ struct Pack {
   /// Lane-wise mask ? a : b (mask lanes are all-ones or zero, as comparisons produce).
   BINPICK_SIMD_INLINE static type select(const mask& m, const type& a, const type& b) { return m ? a : b; }
   /// Lane-wise square root (IEEE, as std::sqrt: the same bits a lane). One instruction on x86-64
-  /// with GCC's builtins (inlined into the caller's target, as gather()), lane by lane otherwise.
+  /// with GCC's builtins (they need the instruction set only in the function they are inlined
+  /// into, not in the caller's own target), lane by lane otherwise.
   BINPICK_SIMD_INLINE static type sqrt(const type& v) {
 #if defined(__x86_64__) && !defined(__clang__) && defined(__GNUC__)
     if constexpr (Bytes == 32 && std::is_same<Scalar, float>::value) {
@@ -95,28 +96,6 @@ struct Pack {
 #endif
     type r;
     for (int i = 0; i < size; ++i) r[i] = std::sqrt(v[i]);
-    return r;
-  }
-  /// Lane l: base[index[l]] where ok[l] is set, else 0; lanes not set read no memory. One AVX2 gather
-  /// at 32 bytes on x86-64 (GCC's builtins need no AVX2 in the caller's own target, only in the
-  /// function it is inlined into; clang's only in AVX2 builds), lane by lane otherwise.
-  BINPICK_SIMD_INLINE static type gather(const Scalar* base, const mask& index, const mask& ok) {
-#if defined(__x86_64__) && !defined(__clang__) && defined(__GNUC__)
-    if constexpr (Bytes == 32 && std::is_same<Scalar, float>::value) {
-      return __builtin_ia32_gathersiv8sf(type{}, base, index, (type)ok, 4);
-    } else if constexpr (Bytes == 32 && std::is_same<Scalar, double>::value) {
-      typedef long long Index64 __attribute__((vector_size(32)));
-      return __builtin_ia32_gatherdiv4df(type{}, base, (Index64)index, (type)ok, 8);
-    }
-#elif defined(__clang__) && defined(__AVX2__)
-    if constexpr (Bytes == 32 && std::is_same<Scalar, float>::value) {
-      return (type)_mm256_mask_i32gather_ps(_mm256_setzero_ps(), base, (__m256i)index, (__m256)ok, 4);
-    } else if constexpr (Bytes == 32 && std::is_same<Scalar, double>::value) {
-      return (type)_mm256_mask_i64gather_pd(_mm256_setzero_pd(), base, (__m256i)index, (__m256d)ok, 8);
-    }
-#endif
-    type r;
-    for (int i = 0; i < size; ++i) r[i] = ok[i] ? base[index[i]] : Scalar(0);
     return r;
   }
 };
