@@ -21,7 +21,7 @@
 /// it). When nothing is recognized (or no grasp is reachable) the next cycle runs the *search move*:
 /// from the home point, an arc over the bin centre with `search_beta_factor` × β coverage — a wider
 /// look — counted in CycleResult::search. Searches in a row (no grasp between them) aim in turn at the
-/// bin centre and at the centres of those of its four quarters that an arc from the home point reaches
+/// bin centre and at the centres of its four quarters, each from above it looking outward
 /// (`vary_search`): a look that found nothing is not repeated from the same side while parts may lie
 /// where it saw them badly.
 ///
@@ -452,11 +452,14 @@ class PickingPipeline {
                     double(rotation_angle<Scalar>(relative_pose(a, b)) / w));
   }
 
-  /// Alg. 2 for grasp A, pull-up flange pose at B and target T, with the roll of the camera at B.
-  active_vision::SensingPath<Scalar> alg2(const Vec3& target, const Vec3& A, const Pose& T_base_B, Scalar beta) const {
+  /// Alg. 2 for grasp A, pull-up flange pose at B and target T, with the roll of the camera at B. The
+  /// arc sweeps toward the drop point C, or toward `sweep_to` (a flange position) when given: a search
+  /// carries no part, so its arc may turn any way.
+  active_vision::SensingPath<Scalar> alg2(const Vec3& target, const Vec3& A, const Pose& T_base_B, Scalar beta,
+                                          const Vec3* sweep_to = nullptr) const {
     const Pose cam_B = camera_of_flange(T_base_B);
     const Vec3 d = cam_B.translation() - T_base_B.translation();  // all points as camera positions
-    const Vec3 C = s_.T_base_drop.translation() + d;
+    const Vec3 C = (sweep_to ? *sweep_to : s_.T_base_drop.translation()) + d;
     return active_vision::plan_sensing_path<Scalar>(target, s_.working_distance, A + d, cam_B.translation(), C, s_.gamma,
                                                     beta, std::max(2, n_), s_.min_elevation);
   }
@@ -480,8 +483,11 @@ class PickingPipeline {
     return to_plan(alg2(default_target(), A, T_home_, beta), T_home_, default_target(), source);
   }
 
-  /// The searches in a row go through (file comment): the bin centre's, then those of the bin's
-  /// quarters whose arc exists from the home point (Alg. 2 may find none toward some of them).
+  /// The searches in a row go through (file comment): the bin centre's from the home point, then the
+  /// bin's quarters'. A quarter's arc starts above its centre (B moved there from the home point) and
+  /// sweeps toward the bin centre, looking outward at the quarter: from the home point toward the drop
+  /// point, Alg. 2 found no arc to the quarters on the far side (the home camera lies beyond the
+  /// working distance of their centres), and a look from the inside sees parts beside the walls.
   std::vector<Plan> search_plans() const {
     const Scalar beta = std::min(Scalar(M_PI / 2), beta_ * s_.search_beta_factor);
     Plan centre = home_path(beta, PathSource::search);
@@ -491,7 +497,10 @@ class PickingPipeline {
     for (int q = 0; q < 4 && s_.vary_search; ++q) {
       const Vec3 A = s_.bin_center + Vec3(sx[q] * s_.bin_length / 4, sy[q] * s_.bin_width / 4, 0);
       const Vec3 target = A + (default_target() - s_.bin_center);
-      const Plan p = to_plan(alg2(target, A, T_home_, beta), T_home_, target, PathSource::search);
+      Pose T_B = T_home_;  // above the quarter's centre
+      T_B.translation() += A - s_.bin_center;
+      const Vec3 inward = T_B.translation() + Scalar(4) * (s_.bin_center - A);
+      const Plan p = to_plan(alg2(target, A, T_B, beta, &inward), T_B, target, PathSource::search);
       if (!p.T_base_cameras.empty()) out.push_back(p);
     }
     return out;
