@@ -126,6 +126,7 @@ struct OracleEstimator {
   const TestSensor* sensor;
   std::vector<std::thread::id> threads;  // the thread of each call
   bool blind = false;                     // recognizes nothing
+  S grasp_shift = 0;                       // every grasp moved this far along base x [m]: grips fail
   long with_obstacles = 0, only_in_obstacles = 0;  // calls given obstacles; pixels measured only there
   cycle::EstimationResult<S> estimate(const cycle::EstimatorInput<S, Camera>& in) {
     threads.push_back(std::this_thread::get_id());
@@ -157,7 +158,8 @@ struct OracleEstimator {
     for (const auto& p : scene->parts()) {
       const auto& m = scene->model(p.type);
       for (const auto& g : m.grasps) {
-        const Isometry3<S> G = p.T_base_part * g.T_part_grasp;
+        Isometry3<S> G = p.T_base_part * g.T_part_grasp;
+        G.translation().x() += grasp_shift;
         if (G.linear().col(2).z() > S(-0.7)) continue;  // approach from above only
         cycle::RecognizedObject<S> o;
         o.part_type = int(p.type);
@@ -286,6 +288,40 @@ TEST(Pipeline, SearchesInARowAimAtDifferentPartsOfTheBin) {
         EXPECT_GT((targets[i] - targets[j]).norm(), ps.bin_width / 4) << i << " " << j;
       }
     }
+  }
+}
+
+// After a failed grip the next sensing path is the planned one with its arc turned about the vertical
+// through B: half a turn from the drop side, then a quarter turn; after a successful grip it sweeps
+// toward the drop point C (Alg. 2).
+TEST(Pipeline, AFailedGripTurnsTheNextSensingArc) {
+  // The arc's horizontal sweep direction against the direction from B toward C: 1 toward C, -1 away.
+  const auto sweep_cos = [](const cycle::CycleResult<S>& r, const cycle::PipelineSettings<S>& ps) {
+    const auto& cams = r.T_base_captures_planned;
+    Eigen::Vector3f sweep = cams.back().translation() - cams.front().translation();
+    Eigen::Vector3f to_c = ps.T_base_drop.translation() - r.pull_up;
+    sweep.z() = 0;
+    to_c.z() = 0;
+    return sweep.normalized().dot(to_c.normalized());
+  };
+  for (const bool fail : {false, true}) {
+    TestCell cell(3, cycle::Strategy::ours);
+    cell.estimator.grasp_shift = fail ? S(0.02) : S(0);
+    const auto& ps = cell.pipeline->settings();
+    const auto r0 = cell.pipeline->run_cycle();  // the predefined path
+    ASSERT_EQ(r0.status, fail ? cycle::CycleStatus::grasp_failed : cycle::CycleStatus::picked);
+    const auto r1 = cell.pipeline->run_cycle();
+    ASSERT_EQ(r1.path_source, cycle::PathSource::planned);
+    ASSERT_GE(r1.T_base_captures_planned.size(), 2u);
+    if (!fail) {
+      EXPECT_GT(sweep_cos(r1, ps), 0.9f);
+      continue;
+    }
+    EXPECT_LT(sweep_cos(r1, ps), -0.9f);  // half a turn
+    ASSERT_EQ(r1.status, cycle::CycleStatus::grasp_failed);
+    const auto r2 = cell.pipeline->run_cycle();
+    ASSERT_GE(r2.T_base_captures_planned.size(), 2u);
+    EXPECT_LT(std::abs(sweep_cos(r2, ps)), 0.2f);  // a quarter turn
   }
 }
 

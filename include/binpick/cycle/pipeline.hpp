@@ -707,6 +707,23 @@ class PickingPipeline {
     next_B_ = T_B;
   }
 
+  /// The next sensing path after the `failures`-th failed grip in a row: the planned one (same target,
+  /// same B) with its arc turned about the vertical through B — half a turn from the drop side first,
+  /// then a quarter turn either way, then the drop side again. With nothing in hand the arc need not
+  /// lead toward C, and the views that gave a wrong pose are not taken again from the same side (the
+  /// same fused depth gives the same pose). Falls back to `planned` when Alg. 2 finds no such arc.
+  Plan relook(const Plan& planned, const Vec3& A, std::size_t failures) const {
+    if (planned.T_base_cameras.empty() || failures == 0) return planned;
+    const Scalar turns[4] = {Scalar(M_PI), Scalar(M_PI / 2), Scalar(-M_PI / 2), Scalar(0)};
+    const Vec3 B = next_B_.translation();
+    Vec3 to_drop = s_.T_base_drop.translation() - B;
+    to_drop.z() = 0;
+    if (!(to_drop.norm() > Scalar(1e-3))) return planned;
+    const Vec3 sweep_to = B + Eigen::AngleAxis<Scalar>(turns[(failures - 1) % 4], Vec3::UnitZ()) * to_drop;
+    Plan p = to_plan(alg2(planned.target, A, next_B_, beta_, &sweep_to), next_B_, planned.target, planned.source);
+    return p.T_base_cameras.empty() ? planned : p;
+  }
+
   /// Records the processing stages from `t_start` and returns the Clock time processing ends.
   double record_processing(const Processed& p, double t_start, std::size_t n, Timeline& tl, CycleResult<Scalar>& r) const {
     double t = t_start;
@@ -782,7 +799,7 @@ class PickingPipeline {
       failed_grasps_.clear();
     else
       failed_grasps_.push_back(p.T_base_grasp.translation());
-    next_ = p.next;
+    next_ = held || s_.strategy == Strategy::random_path ? p.next : relook(p.next, p.T_base_grasp.translation(), failed_grasps_.size());
     r.status = held ? CycleStatus::picked : CycleStatus::grasp_failed;
   }
 
