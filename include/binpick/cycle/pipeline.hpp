@@ -23,7 +23,8 @@
 /// look — counted in CycleResult::search. Searches in a row (no grasp between them) aim in turn at the
 /// bin centre and at the centres of its four quarters, each from above it looking outward
 /// (`vary_search`): a look that found nothing is not repeated from the same side while parts may lie
-/// where it saw them badly.
+/// where it saw them badly. After a failed grip the next cycle carries nothing to drop, and its planned
+/// path is turned about the vertical through B (`relook`): the same views would give the same wrong pose.
 ///
 /// Baselines (§IV.D): `single_view` (A) is ours with n = 1; `random_path` (B) aims each sensing path
 /// at a random point of the bin instead of Eq. 1; `stop_and_go` (C) is the conventional cell of Robot
