@@ -188,7 +188,7 @@ struct TestCell {
   std::unique_ptr<simcell::SimGripper<S>> gripper;
   std::unique_ptr<Pipeline> pipeline;
 
-  TestCell(int parts, cycle::Strategy strategy, std::uint64_t seed = 5, bool vary_search = true) {
+  TestCell(int parts, cycle::Strategy strategy, std::uint64_t seed = 5, bool vary_search = true, bool relook = true) {
     sim::SceneSettings<S> ss;
     ss.part_type = sim::PartType::circle_nut;
     ss.num_parts = parts;
@@ -196,6 +196,7 @@ struct TestCell {
     cycle::PipelineSettings<S> ps;
     ps.strategy = strategy;
     ps.vary_search = vary_search;
+    ps.relook = relook;
     fake_robot = std::make_unique<sim::FakeRobot<S>>(clock, ps.T_base_drop);
     sim::StereoSensorSettings<S> st;
     st.width = 640;
@@ -292,8 +293,8 @@ TEST(Pipeline, SearchesInARowAimAtDifferentPartsOfTheBin) {
 }
 
 // After a failed grip the next sensing path is the planned one with its arc turned about the vertical
-// through B: half a turn from the drop side, then a quarter turn; after a successful grip it sweeps
-// toward the drop point C (Alg. 2).
+// through B: half a turn from the drop side, then a quarter turn; after a successful grip (or with
+// `relook` off) it sweeps toward the drop point C (Alg. 2).
 TEST(Pipeline, AFailedGripTurnsTheNextSensingArc) {
   // The arc's horizontal sweep direction against the direction from B toward C: 1 toward C, -1 away.
   const auto sweep_cos = [](const cycle::CycleResult<S>& r, const cycle::PipelineSettings<S>& ps) {
@@ -304,8 +305,9 @@ TEST(Pipeline, AFailedGripTurnsTheNextSensingArc) {
     to_c.z() = 0;
     return sweep.normalized().dot(to_c.normalized());
   };
-  for (const bool fail : {false, true}) {
-    TestCell cell(3, cycle::Strategy::ours);
+  for (const int mode : {0, 1, 2}) {  // 0: grips hold; 1: grips fail; 2: grips fail, relook off
+    const bool fail = mode > 0;
+    TestCell cell(3, cycle::Strategy::ours, 5, true, mode != 2);
     cell.estimator.grasp_shift = fail ? S(0.02) : S(0);
     const auto& ps = cell.pipeline->settings();
     const auto r0 = cell.pipeline->run_cycle();  // the predefined path
@@ -313,8 +315,8 @@ TEST(Pipeline, AFailedGripTurnsTheNextSensingArc) {
     const auto r1 = cell.pipeline->run_cycle();
     ASSERT_EQ(r1.path_source, cycle::PathSource::planned);
     ASSERT_GE(r1.T_base_captures_planned.size(), 2u);
-    if (!fail) {
-      EXPECT_GT(sweep_cos(r1, ps), 0.9f);
+    if (mode != 1) {
+      EXPECT_GT(sweep_cos(r1, ps), 0.9f) << mode;
       continue;
     }
     EXPECT_LT(sweep_cos(r1, ps), -0.9f);  // half a turn
