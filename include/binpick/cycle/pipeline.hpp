@@ -106,7 +106,7 @@ struct PipelineSettings {
   Scalar min_elevation = Scalar(0);         ///< lowest sensor elevation over T along the arc [rad]
   Scalar search_beta_factor = Scalar(2);    ///< the search arc covers this × β [-]
   bool vary_search = true;                  ///< searches in a row aim at the bin centre, then its quarters (file comment)
-  bool relook = true;                       ///< after a failed grip, turn the next arc about B's vertical (file comment)
+  bool relook = true;                       ///< after a failed grip, turn the next arc about B's vertical (file comment; not for B's random paths)
   // Motion.
   Scalar motion_speed_percent = Scalar(80);  ///< lift, drop, return [%]
   Scalar grasp_speed_percent = Scalar(30);   ///< the last approach to the grasp pose [%]
