@@ -454,26 +454,23 @@ class PickingPipeline {
                     double(rotation_angle<Scalar>(relative_pose(a, b)) / w));
   }
 
-  /// Alg. 2 for grasp A, pull-up flange pose at B and target T, with the roll of the camera at B. The
-  /// arc sweeps toward the drop point C, or toward `sweep_to` (a flange position) when given: a search
-  /// carries no part, so its arc may turn any way.
-  active_vision::SensingPath<Scalar> alg2(const Vec3& target, const Vec3& A, const Pose& T_base_B, Scalar beta,
-                                          const Vec3* sweep_to = nullptr) const {
+  /// The sensing path of Alg. 2 for grasp A, pull-up flange pose at B and target T, with the roll of
+  /// the camera at B; no capture poses when Alg. 2 fails (`status` says why). The arc sweeps toward the
+  /// drop point C, or toward `sweep_to` (a flange position) when given: a search carries no part, so
+  /// its arc may turn any way.
+  Plan arc_plan(const Vec3& target, const Vec3& A, const Pose& T_base_B, Scalar beta, PathSource source,
+                const Vec3* sweep_to = nullptr) const {
     const Pose cam_B = camera_of_flange(T_base_B);
     const Vec3 d = cam_B.translation() - T_base_B.translation();  // all points as camera positions
     const Vec3 C = (sweep_to ? *sweep_to : s_.T_base_drop.translation()) + d;
-    return active_vision::plan_sensing_path<Scalar>(target, s_.working_distance, A + d, cam_B.translation(), C, s_.gamma,
-                                                    beta, std::max(2, n_), s_.min_elevation);
-  }
-
-  Plan to_plan(const active_vision::SensingPath<Scalar>& path, const Pose& T_base_B, const Vec3& target,
-               PathSource source) const {
+    const auto path = active_vision::plan_sensing_path<Scalar>(target, s_.working_distance, A + d, cam_B.translation(), C,
+                                                               s_.gamma, beta, std::max(2, n_), s_.min_elevation);
     Plan p;
     p.target = target;
     p.source = source;
     p.status = path.status;
     if (!path.ok()) return p;
-    const Vec3 x_ref = camera_of_flange(T_base_B).linear().col(0);
+    const Vec3 x_ref = cam_B.linear().col(0);
     for (int i = 0; i < n_; ++i) p.T_base_cameras.push_back(detail::with_roll_near(path.T_base_captures[std::size_t(i)], x_ref));
     return p;
   }
@@ -482,7 +479,7 @@ class PickingPipeline {
 
   Plan home_path(Scalar beta, PathSource source) const {
     const Vec3 A = s_.bin_center;
-    return to_plan(alg2(default_target(), A, T_home_, beta), T_home_, default_target(), source);
+    return arc_plan(default_target(), A, T_home_, beta, source);
   }
 
   /// The searches in a row go through (file comment): the bin centre's from the home point, then the
@@ -502,7 +499,7 @@ class PickingPipeline {
       Pose T_B = T_home_;  // above the quarter's centre
       T_B.translation() += A - s_.bin_center;
       const Vec3 inward = T_B.translation() + Scalar(4) * (s_.bin_center - A);
-      const Plan p = to_plan(alg2(target, A, T_B, beta, &inward), T_B, target, PathSource::search);
+      const Plan p = arc_plan(target, A, T_B, beta, PathSource::search, &inward);
       if (!p.T_base_cameras.empty()) out.push_back(p);
     }
     return out;
@@ -510,16 +507,15 @@ class PickingPipeline {
 
   /// Alg. 2 with the documented fallbacks (file comment).
   Plan plan_with_fallbacks(const Vec3& target, const Vec3& A, const Pose& T_base_B) const {
-    const auto path = alg2(target, A, T_base_B, beta_);
-    if (path.ok()) return to_plan(path, T_base_B, target, PathSource::planned);
-    Plan p = to_plan(alg2(target, A, T_base_B, beta_ / 2), T_base_B, target, PathSource::fallback_half_beta);
-    if (p.T_base_cameras.empty())
-      p = to_plan(alg2(default_target(), A, T_base_B, beta_), T_base_B, default_target(), PathSource::fallback_bin_center);
+    const Plan planned = arc_plan(target, A, T_base_B, beta_, PathSource::planned);
+    if (!planned.T_base_cameras.empty()) return planned;
+    Plan p = arc_plan(target, A, T_base_B, beta_ / 2, PathSource::fallback_half_beta);
+    if (p.T_base_cameras.empty()) p = arc_plan(default_target(), A, T_base_B, beta_, PathSource::fallback_bin_center);
     if (p.T_base_cameras.empty()) {
       p = predefined_;
       p.source = PathSource::fallback_predefined;
     }
-    p.status = path.status;
+    p.status = planned.status;
     return p;
   }
 
@@ -722,7 +718,7 @@ class PickingPipeline {
     to_drop.z() = 0;
     if (!(to_drop.norm() > Scalar(1e-3))) return planned;
     const Vec3 sweep_to = B + Eigen::AngleAxis<Scalar>(turns[(failures - 1) % 4], Vec3::UnitZ()) * to_drop;
-    Plan p = to_plan(alg2(planned.target, A, next_B_, beta_, &sweep_to), next_B_, planned.target, planned.source);
+    const Plan p = arc_plan(planned.target, A, next_B_, beta_, planned.source, &sweep_to);
     return p.T_base_cameras.empty() ? planned : p;
   }
 
