@@ -22,7 +22,7 @@
 /// (e.g. sliding on one plane) and the update is confined to the observable subspace, so those
 /// directions keep their initial value; the result then says `degenerate`.
 /// Point-to-plane sums are formed in the caller's scalar over blocks of 256 points (gathered into
-/// structure-of-arrays rows a lane at a time, moved, paired and summed lane-wise in
+/// structure-of-arrays rows, by pack loads where consecutive, moved, paired and summed lane-wise in
 /// SIMD packs, every rejection a lane mask; AVX2 chosen at run time, core/simd_level.hpp) and added in double
 /// (point-to-point sums in double), one accumulator per thread over fixed ranges of blocks, merged in
 /// order: deterministic for a fixed thread count. Numerical failure is a status, never an exception.
@@ -34,6 +34,7 @@
 #include <cstring>
 #include <limits>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -297,17 +298,64 @@ BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b
   return out;
 }
 
+/// Coordinate D of the L 3-vectors packed in a|b|c (scalars 3l + D of the 3L, l < L): the
+/// transpose of L consecutive 3-vectors read with three pack loads.
+template <typename Scalar, int Bytes, int D, std::size_t... Ls>
+BINPICK_SIMD_INLINE typename detail::Pack<Scalar, Bytes>::type coordinate_of_three(
+    const typename detail::Pack<Scalar, Bytes>::type& a, const typename detail::Pack<Scalar, Bytes>::type& b,
+    const typename detail::Pack<Scalar, Bytes>::type& c, std::index_sequence<Ls...>) {
+  constexpr int L = int(sizeof...(Ls));
+  // From a|b the scalars below 2L, then c's in the lanes left over.
+#if defined(__clang__)
+  const auto ab = __builtin_shufflevector(a, b, (3 * int(Ls) + D < 2 * L ? 3 * int(Ls) + D : 0)...);
+  return __builtin_shufflevector(ab, c, (3 * int(Ls) + D < 2 * L ? int(Ls) : L + 3 * int(Ls) + D - 2 * L)...);
+#else
+  using Mask = typename detail::Pack<Scalar, Bytes>::mask;
+  using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
+  const Mask from_ab = {Index(3 * int(Ls) + D < 2 * L ? 3 * int(Ls) + D : 0)...};
+  const Mask from_c = {Index(3 * int(Ls) + D < 2 * L ? int(Ls) : L + 3 * int(Ls) + D - 2 * L)...};
+  return __builtin_shuffle(__builtin_shuffle(a, b, from_ab), c, from_c);
+#endif
+}
+
+/// rows[d][i + l] = base[e + 3 l + d] (d = 0, 1, 2; l < L, the lanes of Pack<Scalar, Bytes>): L
+/// consecutive 3-vectors read with three pack loads and transposed.
+template <typename Scalar, int Bytes>
+BINPICK_SIMD_INLINE void load_xyz(const Scalar* base, std::ptrdiff_t e, Scalar (&rows)[3][PairBlock<Scalar>::kSize], int i) {
+  using P = detail::Pack<Scalar, Bytes>;
+  constexpr int L = P::size;
+  const Scalar* q = base + e;
+  const typename P::type a = P::load(q), b = P::load(q + L), c = P::load(q + 2 * L);
+  const auto lanes = std::make_index_sequence<std::size_t(L)>();
+  P::store(rows[0] + i, coordinate_of_three<Scalar, Bytes, 0>(a, b, c, lanes));
+  P::store(rows[1] + i, coordinate_of_three<Scalar, Bytes, 1>(a, b, c, lanes));
+  P::store(rows[2] + i, coordinate_of_three<Scalar, Bytes, 2>(a, b, c, lanes));
+}
+
 /// rows[d][i + l] = base[element[l] + d] (d = 0, 1, 2) for the lanes of `ok`, else 0: a pack of
 /// 3-vectors gathered from an array of them (element = 3 × index, already 0 in the lanes not in `ok`;
-/// those lanes read nothing). A lane at a time, not with AVX2
-/// gathers: the partners of a block lie in a few rows of the target, and per lane the three values
-/// share a cache line. Measured on 640 x 480 (projective, 307 k points, AMD Zen 5): one ICP
-/// iteration 3.9 ms with three gathers per row, 3.0 ms with this.
+/// those lanes read nothing; three_lane = 3 × lane). When the lanes are L consecutive 3-vectors (the
+/// source walked in order; many projective partners, as neighbouring pixels pair with neighbouring
+/// pixels) they are read with pack loads and transposed (load_xyz); else a lane at a time, not with
+/// AVX2 gathers: the partners of a block lie in a few rows of the target, and per lane the three
+/// values share a cache line. Measured on 640 x 480 (projective, 307 k points, AMD Zen 5): one ICP
+/// iteration 3.9 ms with three gathers per row, 3.0 ms a lane at a time; the whole registration
+/// 4.0-4.6 -> 3.6-4.2 ms (medians of 5 alternating runs) with consecutive packs loaded whole (73 % of
+/// the partner packs there). Also loading the halves of a 32-byte pack, or skipping packs without
+/// partners, did not pay.
 template <typename Scalar, int Bytes>
 BINPICK_SIMD_INLINE void gather_xyz(const Scalar* base, const typename detail::Pack<Scalar, Bytes>::mask& element,
                                     const typename detail::Pack<Scalar, Bytes>::mask& ok,
+                                    const typename detail::Pack<Scalar, Bytes>::mask& three_lane,
                                     Scalar (&rows)[3][PairBlock<Scalar>::kSize], int i) {
-  for (int l = 0; l < detail::Pack<Scalar, Bytes>::size; ++l) {
+  using Mask = typename detail::Pack<Scalar, Bytes>::mask;
+  constexpr int L = detail::Pack<Scalar, Bytes>::size;
+  const Mask start = element - three_lane;  // element[0] in every lane of a consecutive pack
+  const Mask bad = (start != start[0]) | ~ok;
+  bool consecutive = true;
+  for (int l = 0; l < L; ++l) consecutive &= bad[l] == 0;
+  if (consecutive) return load_xyz<Scalar, Bytes>(base, element[0], rows, i);
+  for (int l = 0; l < L; ++l) {
     const Scalar* q = base + element[l];
     for (int d = 0; d < 3; ++d) rows[d][i + l] = ok[l] ? q[d] : Scalar(0);
   }
@@ -552,7 +600,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
       prm.check_partner = pixels;
       // A block: gather the source rows, move them (SIMD), find partners (SIMD projection, or a scalar
       // call per point), gather the partners' rows, and sum (SIMD, file comment). Rows are gathered a
-      // pack at a time (gather_xyz) from the source's arrays and, through the optional
+      // pack at a time (gather_xyz: pack loads where the points are consecutive) from the source's arrays and, through the optional
       // storage members (correspondence.hpp), the target's, while the element offsets 3 i + 2 fit the
       // index lanes (32-bit for float); else one point at a time.
       const Scalar* tgt_p = nullptr;
@@ -594,9 +642,10 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
           using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
           constexpr int L = P::size;
           const int padded = (count + L - 1) / L * L;
+          Mask lane;
+          for (int l = 0; l < L; ++l) lane[l] = Index(l);
+          const Mask three_lane = lane * Index(3);  // gather_xyz's consecutive elements
           if (gathers) {
-            Mask lane;
-            for (int l = 0; l < L; ++l) lane[l] = Index(l);
             for (int i = 0; i < padded; i += L) {
               const Mask ok = lane + Index(i) < Index(count);
               Mask index;
@@ -610,8 +659,8 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
                 for (int l = 0; l < L; ++l) index[l] = i + l < count ? Index(kept[std::size_t(first + i + l)]) : Index(0);
               }
               const Mask element = ok & (index * Index(3));
-              rd::gather_xyz<Scalar, Bytes>(src_p, element, ok, blk.p, i);
-              if (check_normals) rd::gather_xyz<Scalar, Bytes>(src_n, element, ok, blk.ns, i);
+              rd::gather_xyz<Scalar, Bytes>(src_p, element, ok, three_lane, blk.p, i);
+              if (check_normals) rd::gather_xyz<Scalar, Bytes>(src_n, element, ok, three_lane, blk.ns, i);
             }
           } else {
             for (int s = count; s < padded; ++s)  // padding: no partner
@@ -649,8 +698,8 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
               const Mask index = __builtin_convertvector(j, Mask);  // < 2^31 / 3 (gathers)
               const Mask ok = index >= Index(0);
               const Mask element = ok & (index * Index(3));
-              rd::gather_xyz<Scalar, Bytes>(tgt_p, element, ok, blk.y, i);
-              rd::gather_xyz<Scalar, Bytes>(tgt_n, element, ok, blk.nt, i);
+              rd::gather_xyz<Scalar, Bytes>(tgt_p, element, ok, three_lane, blk.y, i);
+              rd::gather_xyz<Scalar, Bytes>(tgt_n, element, ok, three_lane, blk.nt, i);
             }
           } else {
             for (int s = 0; s < padded; ++s) {
