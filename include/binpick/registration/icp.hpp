@@ -298,38 +298,16 @@ BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b
   return out;
 }
 
-/// Coordinate D of the L 3-vectors packed in a|b|c (scalars 3l + D of the 3L, l < L): the
-/// transpose of L consecutive 3-vectors read with three pack loads.
-template <typename Scalar, int Bytes, int D, std::size_t... Ls>
-BINPICK_SIMD_INLINE typename detail::Pack<Scalar, Bytes>::type coordinate_of_three(
-    const typename detail::Pack<Scalar, Bytes>::type& a, const typename detail::Pack<Scalar, Bytes>::type& b,
-    const typename detail::Pack<Scalar, Bytes>::type& c, std::index_sequence<Ls...>) {
-  constexpr int L = int(sizeof...(Ls));
-  // From a|b the scalars below 2L, then c's in the lanes left over.
-#if defined(__clang__)
-  const auto ab = __builtin_shufflevector(a, b, (3 * int(Ls) + D < 2 * L ? 3 * int(Ls) + D : 0)...);
-  return __builtin_shufflevector(ab, c, (3 * int(Ls) + D < 2 * L ? int(Ls) : L + 3 * int(Ls) + D - 2 * L)...);
-#else
-  using Mask = typename detail::Pack<Scalar, Bytes>::mask;
-  using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
-  const Mask from_ab = {Index(3 * int(Ls) + D < 2 * L ? 3 * int(Ls) + D : 0)...};
-  const Mask from_c = {Index(3 * int(Ls) + D < 2 * L ? int(Ls) : L + 3 * int(Ls) + D - 2 * L)...};
-  return __builtin_shuffle(__builtin_shuffle(a, b, from_ab), c, from_c);
-#endif
-}
-
 /// rows[d][i + l] = base[e + 3 l + d] (d = 0, 1, 2; l < L, the lanes of Pack<Scalar, Bytes>): L
-/// consecutive 3-vectors read with three pack loads and transposed.
+/// consecutive 3-vectors read with pack loads and transposed.
 template <typename Scalar, int Bytes>
 BINPICK_SIMD_INLINE void load_xyz(const Scalar* base, std::ptrdiff_t e, Scalar (&rows)[3][PairBlock<Scalar>::kSize], int i) {
   using P = detail::Pack<Scalar, Bytes>;
-  constexpr int L = P::size;
-  const Scalar* q = base + e;
-  const typename P::type a = P::load(q), b = P::load(q + L), c = P::load(q + 2 * L);
-  const auto lanes = std::make_index_sequence<std::size_t(L)>();
-  P::store(rows[0] + i, coordinate_of_three<Scalar, Bytes, 0>(a, b, c, lanes));
-  P::store(rows[1] + i, coordinate_of_three<Scalar, Bytes, 1>(a, b, c, lanes));
-  P::store(rows[2] + i, coordinate_of_three<Scalar, Bytes, 2>(a, b, c, lanes));
+  typename P::type x, y, z;
+  P::load3(base + e, x, y, z);
+  P::store(rows[0] + i, x);
+  P::store(rows[1] + i, y);
+  P::store(rows[2] + i, z);
 }
 
 /// rows[d][i + l] = base[element[l] + d] (d = 0, 1, 2) for the lanes of `ok`, else 0: a pack of

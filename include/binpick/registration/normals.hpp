@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -210,7 +211,30 @@ BINPICK_SIMD_INLINE void organized_normals_pack(const RowXyz<Scalar>& c, const R
   ox = P::select(ok, P::select(flip, -ox, ox), zero);
   oy = P::select(ok, P::select(flip, -oy, oy), zero);
   oz = P::select(ok, P::select(flip, -oz, oz), zero);
-  for (int l = 0; l < P::size; ++l) out[l] = Vector3<Scalar>(ox[l], oy[l], oz[l]);
+  static_assert(sizeof(Vector3<Scalar>) == 3 * sizeof(Scalar), "3-vectors must be packed");
+  P::store3(out->data(), ox, oy, oz);
+}
+
+/// x[u], y[u], z[u] = p[u] for u < w: a row of 3-vectors as coordinate rows, a pack at a time.
+template <typename Scalar>
+void deinterleave_row(const Vector3<Scalar>* p, int w, Scalar* x, Scalar* y, Scalar* z) {
+  static_assert(sizeof(Vector3<Scalar>) == 3 * sizeof(Scalar), "3-vectors must be packed");
+  int u = 0;
+  detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+    using P = detail::Pack<Scalar, decltype(bytes)::value>;
+    for (; u + P::size <= w; u += P::size) {
+      typename P::type px, py, pz;
+      P::load3(p[u].data(), px, py, pz);
+      P::store(x + u, px);
+      P::store(y + u, py);
+      P::store(z + u, pz);
+    }
+  });
+  for (; u < w; ++u) {
+    x[u] = p[u].x();
+    y[u] = p[u].y();
+    z[u] = p[u].z();
+  }
 }
 
 BINPICK_SIMD_END
@@ -239,12 +263,7 @@ void organized_normals_into(const OrganizedCloud<Scalar>& cloud, const Organized
     const int slot = r % slots;
     Scalar* x = ring.xyz.data() + std::size_t(slot) * 3 * std::size_t(w);
     if (ring.row[std::size_t(slot)] != r) {
-      const Vector3<Scalar>* p = cloud.points.data() + cloud.index(0, r);
-      for (int u = 0; u < w; ++u) {
-        x[u] = p[u].x();
-        x[w + u] = p[u].y();
-        x[2 * w + u] = p[u].z();
-      }
+      deinterleave_row(cloud.points.data() + cloud.index(0, r), w, x, x + w, x + 2 * w);
       ring.row[std::size_t(slot)] = r;
     }
     return RowXyz<Scalar>{x, x + w, x + 2 * w};
@@ -278,12 +297,24 @@ void organized_normals_into(const OrganizedCloud<Scalar>& cloud, const Organized
 /// order, and drops the rest: an organized cloud and its normals become an unorganized one in place.
 template <typename Scalar>
 void keep_valid_in_place(std::vector<Vector3<Scalar>>& points, std::vector<Vector3<Scalar>>& normals) {
+  // Runs of valid pixels moved whole (m <= i: nothing not yet read is overwritten); a run already
+  // in place (no invalid pixel before it) is not copied at all.
+  const std::size_t n = points.size();
   std::size_t m = 0;
-  for (std::size_t i = 0; i < points.size(); ++i)
-    if (points[i].z() > Scalar(0)) {  // m <= i: entry i is not yet overwritten
-      points[m] = points[i];
-      normals[m++] = normals[i];
+  for (std::size_t i = 0; i < n;) {
+    if (!(points[i].z() > Scalar(0))) {
+      ++i;
+      continue;
     }
+    std::size_t end = i + 1;
+    while (end < n && points[end].z() > Scalar(0)) ++end;
+    if (m != i) {
+      std::memmove(static_cast<void*>(points.data() + m), points.data() + i, (end - i) * sizeof(Vector3<Scalar>));
+      std::memmove(static_cast<void*>(normals.data() + m), normals.data() + i, (end - i) * sizeof(Vector3<Scalar>));
+    }
+    m += end - i;
+    i = end;
+  }
   points.resize(m);
   normals.resize(m);
 }

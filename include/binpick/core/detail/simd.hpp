@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 #include <type_traits>
+#include <utility>
 
 #if defined(__x86_64__)
 #include <immintrin.h>  // declares the AVX builtins (Pack::sqrt) in builds without AVX
@@ -46,6 +47,36 @@ struct Lanes {
   typedef T type __attribute__((vector_size(N * sizeof(T))));
 };
 
+/// Lane l of the result is scalar Index(l) of the 2L-lane concatenation a|b (Index a constexpr map).
+template <typename V, typename M, int L, typename Index, std::size_t... Ls>
+BINPICK_SIMD_INLINE V shuffle_two(const V& a, const V& b, std::index_sequence<Ls...>) {
+#if defined(__clang__)
+  return __builtin_shufflevector(a, b, Index::at(int(Ls))...);
+#else
+  using Lane = typename std::remove_reference<decltype(M()[0])>::type;
+  const M m = {Lane(Index::at(int(Ls)))...};
+  return __builtin_shuffle(a, b, m);
+#endif
+}
+
+/// Index maps of Pack::load3 / store3 (scalar e of the interleaved 3L is coordinate e % 3 of vector e / 3).
+template <int L, int D>
+struct DeinterleaveFromAb {  // coordinate D from a|b where it lies there (else any lane)
+  static constexpr int at(int l) { return 3 * l + D < 2 * L ? 3 * l + D : 0; }
+};
+template <int L, int D>
+struct DeinterleaveWithC {  // ... then the rest from c
+  static constexpr int at(int l) { return 3 * l + D < 2 * L ? l : L + 3 * l + D - 2 * L; }
+};
+template <int L, int J>
+struct InterleaveFromXy {  // scalars J L .. J L + L - 1 of the interleaved array: x and y lanes
+  static constexpr int at(int m) { return (J * L + m) % 3 == 0 ? (J * L + m) / 3 : (J * L + m) % 3 == 1 ? L + (J * L + m) / 3 : 0; }
+};
+template <int L, int J>
+struct InterleaveWithZ {  // ... then the z lanes
+  static constexpr int at(int m) { return (J * L + m) % 3 == 2 ? L + (J * L + m) / 3 : m; }
+};
+
 template <typename Scalar, int Bytes = kPackBytes>
 struct Pack {
   static constexpr int size = int(Bytes / sizeof(Scalar));
@@ -58,6 +89,28 @@ struct Pack {
     return v;
   }
   BINPICK_SIMD_INLINE static void store(Scalar* p, const type& v) { std::memcpy(p, &v, sizeof v); }
+  /// The coordinates of `size` consecutive 3-vectors (3 × size scalars from p) as three packs: three
+  /// loads and two shuffles a coordinate, instead of a scalar load and insert a value.
+  BINPICK_SIMD_INLINE static void load3(const Scalar* p, type& x, type& y, type& z) {
+    const type a = load(p), b = load(p + size), c = load(p + 2 * size);
+    const auto lanes = std::make_index_sequence<std::size_t(size)>();
+    x = shuffle_two<type, mask, size, DeinterleaveWithC<size, 0>>(
+        shuffle_two<type, mask, size, DeinterleaveFromAb<size, 0>>(a, b, lanes), c, lanes);
+    y = shuffle_two<type, mask, size, DeinterleaveWithC<size, 1>>(
+        shuffle_two<type, mask, size, DeinterleaveFromAb<size, 1>>(a, b, lanes), c, lanes);
+    z = shuffle_two<type, mask, size, DeinterleaveWithC<size, 2>>(
+        shuffle_two<type, mask, size, DeinterleaveFromAb<size, 2>>(a, b, lanes), c, lanes);
+  }
+  /// load3's inverse: x, y, z written as `size` consecutive 3-vectors at p.
+  BINPICK_SIMD_INLINE static void store3(Scalar* p, const type& x, const type& y, const type& z) {
+    const auto lanes = std::make_index_sequence<std::size_t(size)>();
+    store(p, shuffle_two<type, mask, size, InterleaveWithZ<size, 0>>(
+                 shuffle_two<type, mask, size, InterleaveFromXy<size, 0>>(x, y, lanes), z, lanes));
+    store(p + size, shuffle_two<type, mask, size, InterleaveWithZ<size, 1>>(
+                        shuffle_two<type, mask, size, InterleaveFromXy<size, 1>>(x, y, lanes), z, lanes));
+    store(p + 2 * size, shuffle_two<type, mask, size, InterleaveWithZ<size, 2>>(
+                            shuffle_two<type, mask, size, InterleaveFromXy<size, 2>>(x, y, lanes), z, lanes));
+  }
   BINPICK_SIMD_INLINE static type splat(Scalar s) {
     type v;
     for (int i = 0; i < size; ++i) v[i] = s;
