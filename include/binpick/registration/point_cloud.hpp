@@ -10,12 +10,16 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstring>
+#include <limits>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "binpick/core/camera_model.hpp"
 #include "binpick/core/depth_image.hpp"
+#include "binpick/core/detail/simd.hpp"
 #include "binpick/core/errors.hpp"
 #include "binpick/core/pose.hpp"
 #include "binpick/core/ray_table.hpp"
@@ -76,10 +80,45 @@ class PixelBackprojector<Scalar, PinholeCamera<Scalar>> {
     const Vector3<Scalar> p(rays_.x[std::size_t(u)] * z, rays_.y[std::size_t(v)] * z, z);
     return p.allFinite() ? p : Vector3<Scalar>::Zero().eval();
   }
+  const detail::RayTable<Scalar>& rays() const { return rays_; }
 
  private:
   detail::RayTable<Scalar> rays_;
 };
+BINPICK_SIMD_BEGIN
+
+/// Row v of a pinhole backprojection at stride 1 a pack at a time: out[u] = point(u, v, decode(row[u]))
+/// (the same operations lane by lane, so the same bits) for the leading whole packs of the row.
+/// Returns the first column not written.
+template <typename Scalar, typename T>
+int backproject_pinhole_row(const T* row, Scalar scale, const PixelBackprojector<Scalar, PinholeCamera<Scalar>>& point,
+                            int v, int width, Vector3<Scalar>* out) {
+  static_assert(sizeof(Vector3<Scalar>) == 3 * sizeof(Scalar), "3-vectors must be packed");
+  int u = 0;
+  const Scalar* rx = point.rays().x.data();
+  const Scalar ry = point.rays().y[std::size_t(v)];
+  detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+    using P = detail::Pack<Scalar, decltype(bytes)::value>;
+    using V = typename P::type;
+    using Raw = typename detail::Lanes<T, P::size>::type;
+    const V s = P::splat(scale), zero = P::splat(Scalar(0)), y_ray = P::splat(ry);
+    const V inf = P::splat(std::numeric_limits<Scalar>::infinity()), big = P::splat(std::numeric_limits<Scalar>::max());
+    for (; u + P::size <= width; u += P::size) {
+      Raw raw;
+      std::memcpy(&raw, row + u, sizeof raw);
+      const V d = __builtin_convertvector(raw, V) * s;  // DepthImageView::decode
+      typename P::mask ok = (d > zero) & (d < inf);
+      const V z = P::select(ok, d, zero);
+      const V x = P::load(rx + u) * z, y = y_ray * z;
+      ok &= (x <= big) & (-x <= big) & (y <= big) & (-y <= big);  // allFinite()
+      P::store3(out[u].data(), P::select(ok, x, zero), P::select(ok, y, zero), P::select(ok, z, zero));
+    }
+  });
+  return u;
+}
+
+BINPICK_SIMD_END
+
 }  // namespace registration_detail
 
 /// One point per pixel of every `stride`-th row and column of `depth` (stride 1: every pixel; the
@@ -105,7 +144,11 @@ void backproject_organized(const DepthImageView<Scalar>& depth, const Camera& ca
     for (int v = 0; v < cloud.height; ++v) {
       const T* row = depth.template row<T>(v * stride);
       Vector3<Scalar>* out = cloud.points.data() + cloud.index(0, v);
-      for (int u = 0; u < cloud.width; ++u) {
+      int u = 0;
+      if constexpr (std::is_same<Camera, PinholeCamera<Scalar>>::value) {
+        if (stride == 1) u = registration_detail::backproject_pinhole_row(row, scale, point, v, cloud.width, out);
+      }
+      for (; u < cloud.width; ++u) {
         const Scalar z = DepthImageView<Scalar>::decode(row[std::size_t(u) * std::size_t(stride)], scale);
         out[u] = point(u * stride, v * stride, z);
       }
