@@ -6,6 +6,7 @@
 #include <rapidcheck/gtest.h>
 
 #include "binpick/core.hpp"
+#include "binpick/core/detail/simd.hpp"
 #include "test_support.hpp"
 
 using namespace binpick;
@@ -183,3 +184,34 @@ TEST(Pose, RotationAngleAccurateForSmallAngles) {
   T.linear() = Eigen::AngleAxisf(1e-4f, Eigen::Vector3f::UnitX()).toRotationMatrix();
   EXPECT_NEAR(rotation_angle(T), 1e-4f, 1e-7f);
 }
+
+// Pack::load3 / store3 (core/detail/simd.hpp) at every SIMD level: the transpose of `size`
+// consecutive 3-vectors and back, lane for lane (distinct values, so any wrong shuffle index shows).
+template <typename Scalar>
+void check_pack_load3_store3() {
+  for (const SimdLevel level : available_simd_levels()) {
+    const test::SimdCap cap(level);
+    std::vector<Scalar> in(25), coords(25), out(25, Scalar(-1));  // up to 8 lanes, one sentinel
+    int lanes = 0;
+    for (int e = 0; e < 25; ++e) in[std::size_t(e)] = Scalar(e) * Scalar(1.25) + Scalar(0.5);
+    detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+      using P = detail::Pack<Scalar, decltype(bytes)::value>;
+      lanes = P::size;
+      typename P::type x, y, z;
+      P::load3(in.data(), x, y, z);
+      P::store(coords.data(), x);
+      P::store(coords.data() + P::size, y);
+      P::store(coords.data() + 2 * P::size, z);
+      P::store3(out.data(), x, y, z);
+    });
+    ASSERT_GE(lanes, 1);
+    for (int l = 0; l < lanes; ++l)
+      for (int d = 0; d < 3; ++d)
+        EXPECT_EQ(coords[std::size_t(d * lanes + l)], in[std::size_t(3 * l + d)]) << "lane " << l << " coordinate " << d;
+    for (int e = 0; e < 3 * lanes; ++e) EXPECT_EQ(out[std::size_t(e)], in[std::size_t(e)]) << "scalar " << e;
+    EXPECT_EQ(out[std::size_t(3 * lanes)], Scalar(-1)) << "store3 wrote past 3 x size scalars";
+  }
+}
+
+TEST(Simd, PackLoad3Store3Float) { check_pack_load3_store3<float>(); }
+TEST(Simd, PackLoad3Store3Double) { check_pack_load3_store3<double>(); }

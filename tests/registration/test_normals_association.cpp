@@ -260,7 +260,8 @@ template <typename Scalar>
 void check_backprojection_matches_per_pixel() {
   const int w = *rc::gen::inRange(1, 40), h = *rc::gen::inRange(1, 6);
   const Scalar f = Scalar(uniform(0.5, 600));
-  const PinholeCamera<Scalar> cam(f, Scalar(uniform(0.5, 600)), Scalar(uniform(-5, w + 5)), Scalar(uniform(-5, h + 5)), w, h);
+  const PinholeCamera<Scalar> cam(f, Scalar(uniform(0.5, 600)), Scalar(uniform(-5, w + 5)), Scalar(uniform(-5, h + 5)),
+                                  w, h);
   std::mt19937 rng(*rc::gen::arbitrary<std::uint32_t>());
   std::uniform_real_distribution<double> unit(0, 1);
   const auto special = [&]() -> double {

@@ -34,7 +34,6 @@
 #include <cstring>
 #include <limits>
 #include <type_traits>
-#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -301,7 +300,8 @@ BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b
 /// rows[d][i + l] = base[e + 3 l + d] (d = 0, 1, 2; l < L, the lanes of Pack<Scalar, Bytes>): L
 /// consecutive 3-vectors read with pack loads and transposed.
 template <typename Scalar, int Bytes>
-BINPICK_SIMD_INLINE void load_xyz(const Scalar* base, std::ptrdiff_t e, Scalar (&rows)[3][PairBlock<Scalar>::kSize], int i) {
+BINPICK_SIMD_INLINE void load_xyz(const Scalar* base, std::ptrdiff_t e, Scalar (&rows)[3][PairBlock<Scalar>::kSize],
+                                  int i) {
   using P = detail::Pack<Scalar, Bytes>;
   typename P::type x, y, z;
   P::load3(base + e, x, y, z);
@@ -319,8 +319,8 @@ BINPICK_SIMD_INLINE void load_xyz(const Scalar* base, std::ptrdiff_t e, Scalar (
 /// values share a cache line. Measured on 640 x 480 (projective, 307 k points, AMD Zen 5): one ICP
 /// iteration 3.9 ms with three gathers per row, 3.0 ms a lane at a time; the whole registration
 /// 4.0-4.6 -> 3.6-4.2 ms (medians of 5 alternating runs) with consecutive packs loaded whole (73 % of
-/// the partner packs there). Also loading the halves of a 32-byte pack, or skipping packs without
-/// partners, did not pay.
+/// the partner packs there). Also loading the halves of a 32-byte pack, a 16-byte load a lane and a
+/// transpose for the other packs, or skipping packs without partners, measured no better.
 template <typename Scalar, int Bytes>
 BINPICK_SIMD_INLINE void gather_xyz(const Scalar* base, const typename detail::Pack<Scalar, Bytes>::mask& element,
                                     const typename detail::Pack<Scalar, Bytes>::mask& ok,
@@ -578,9 +578,9 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
       prm.check_partner = pixels;
       // A block: gather the source rows, move them (SIMD), find partners (SIMD projection, or a scalar
       // call per point), gather the partners' rows, and sum (SIMD, file comment). Rows are gathered a
-      // pack at a time (gather_xyz: pack loads where the points are consecutive) from the source's arrays and, through the optional
-      // storage members (correspondence.hpp), the target's, while the element offsets 3 i + 2 fit the
-      // index lanes (32-bit for float); else one point at a time.
+      // pack at a time (gather_xyz: pack loads where the points are consecutive) from the source's
+      // arrays and, through the optional storage members (correspondence.hpp), the target's, while the
+      // element offsets 3 i + 2 fit the index lanes (32-bit for float); else one point at a time.
       const Scalar* tgt_p = nullptr;
       const Scalar* tgt_n = nullptr;
       bool gathers = false;

@@ -70,7 +70,9 @@ struct DeinterleaveWithC {  // ... then the rest from c
 };
 template <int L, int J>
 struct InterleaveFromXy {  // scalars J L .. J L + L - 1 of the interleaved array: x and y lanes
-  static constexpr int at(int m) { return (J * L + m) % 3 == 0 ? (J * L + m) / 3 : (J * L + m) % 3 == 1 ? L + (J * L + m) / 3 : 0; }
+  static constexpr int at(int m) {
+    return (J * L + m) % 3 == 0 ? (J * L + m) / 3 : (J * L + m) % 3 == 1 ? L + (J * L + m) / 3 : 0;
+  }
 };
 template <int L, int J>
 struct InterleaveWithZ {  // ... then the z lanes
