@@ -20,6 +20,7 @@
 #include <cmath>
 #include <vector>
 
+#include "binpick/core/detail/simd.hpp"
 #include "binpick/core/errors.hpp"
 
 namespace binpick {
@@ -147,4 +148,26 @@ class DepthImage {
   std::vector<Scalar> data_;
 };
 
+namespace detail {
+
+BINPICK_SIMD_BEGIN
+
+/// DepthImageView::decode for the Pack<Scalar, Bytes>::size raw values at `raw`: the depths [m], 0 in
+/// the invalid lanes, and in `ok` the valid lanes (the scalar rule lane for lane, so the same bits).
+/// For kernels that decode a row as they go instead of in a pass of their own.
+template <typename Scalar, int Bytes, typename T>
+BINPICK_SIMD_INLINE typename Pack<Scalar, Bytes>::type decode_pack(const T* raw, Scalar metres_per_unit,
+                                                                   typename Pack<Scalar, Bytes>::mask& ok) {
+  using P = Pack<Scalar, Bytes>;
+  typename Lanes<T, P::size>::type r;
+  std::memcpy(&r, raw, sizeof r);
+  const typename P::type d = __builtin_convertvector(r, typename P::type) * P::splat(metres_per_unit);
+  const typename P::type zero = P::splat(Scalar(0));
+  ok = (d > zero) & (d < P::splat(std::numeric_limits<Scalar>::infinity()));  // NaN fails both
+  return P::select(ok, d, zero);
+}
+
+BINPICK_SIMD_END
+
+}  // namespace detail
 }  // namespace binpick

@@ -83,7 +83,6 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
   using V = typename P::type;
   using Mask = decltype(V() < V());  // signed integer lanes as wide as Scalar
   using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
-  using Raw = typename Lanes<T, P::size>::type;
   const Index none = Index(std::size_t(tw) * std::size_t(th));
   const int wpad = (w + P::size - 1) / P::size * P::size;
   const int wfull = w / P::size * P::size;  // packs read straight from the row; the rest from `tail`
@@ -92,7 +91,6 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
   T tail[P::size];
   Scalar spare[64];  // the scatter's sink for invalid points
   std::fill(spare, spare + 64, Scalar(0));
-  const V vscale = P::splat(source.metres_per_unit()), vinf = P::splat(std::numeric_limits<Scalar>::infinity());
   const V m00 = P::splat(M(0, 0)), m10 = P::splat(M(1, 0)), m20 = P::splat(M(2, 0));
   const V mx = P::splat(m.x()), my = P::splat(m.y()), mz = P::splat(m.z());
   const V vzero = P::splat(Scalar(0)), vone = P::splat(Scalar(1)), vhalf = P::splat(Scalar(0.5));
@@ -114,12 +112,9 @@ BINPICK_SIMD_INLINE std::size_t reproject_rows_pinhole(const DepthImageView<Scal
       std::copy(row + wfull, row + w, tail);
     }
     for (int u = 0; u < wpad; u += P::size) {
-      Raw raw;
-      std::memcpy(&raw, u < wfull ? row + u : tail, sizeof raw);
-      const V zs = __builtin_convertvector(raw, V) * vscale;
-      const auto z_ok = (zs > vzero) & (zs < vinf);  // NaN fails both
-      valid_lanes -= z_ok;                           // a set lane is -1
-      const V z = P::select(z_ok, zs, vzero);
+      Mask z_ok;
+      const V z = decode_pack<Scalar, Bytes>(u < wfull ? row + u : tail, source.metres_per_unit(), z_ok);
+      valid_lanes -= z_ok;  // a set lane is -1
       const V x = P::load(rx + u);
       V bx = bx0, by = by0, bz = bz0;
       if constexpr (PerPixelY) {

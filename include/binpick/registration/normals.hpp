@@ -222,13 +222,7 @@ void deinterleave_row(const Vector3<Scalar>* p, int w, Scalar* x, Scalar* y, Sca
   int u = 0;
   detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
     using P = detail::Pack<Scalar, decltype(bytes)::value>;
-    for (; u + P::size <= w; u += P::size) {
-      typename P::type px, py, pz;
-      P::load3(p[u].data(), px, py, pz);
-      P::store(x + u, px);
-      P::store(y + u, py);
-      P::store(z + u, pz);
-    }
+    for (; u + P::size <= w; u += P::size) P::load3(p[u].data(), x + u, y + u, z + u);
   });
   for (; u < w; ++u) {
     x[u] = p[u].x();

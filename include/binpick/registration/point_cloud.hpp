@@ -85,6 +85,7 @@ class PixelBackprojector<Scalar, PinholeCamera<Scalar>> {
  private:
   detail::RayTable<Scalar> rays_;
 };
+
 BINPICK_SIMD_BEGIN
 
 /// Row v of a pinhole backprojection at stride 1 a pack at a time: out[u] = point(u, v, decode(row[u]))
@@ -100,15 +101,10 @@ int backproject_pinhole_row(const T* row, Scalar scale, const PixelBackprojector
   detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
     using P = detail::Pack<Scalar, decltype(bytes)::value>;
     using V = typename P::type;
-    using Raw = typename detail::Lanes<T, P::size>::type;
-    const V s = P::splat(scale), zero = P::splat(Scalar(0)), y_ray = P::splat(ry);
-    const V inf = P::splat(std::numeric_limits<Scalar>::infinity()), big = P::splat(std::numeric_limits<Scalar>::max());
+    const V zero = P::splat(Scalar(0)), y_ray = P::splat(ry), big = P::splat(std::numeric_limits<Scalar>::max());
     for (; u + P::size <= width; u += P::size) {
-      Raw raw;
-      std::memcpy(&raw, row + u, sizeof raw);
-      const V d = __builtin_convertvector(raw, V) * s;  // DepthImageView::decode
-      typename P::mask ok = (d > zero) & (d < inf);
-      const V z = P::select(ok, d, zero);
+      typename P::mask ok;
+      const V z = detail::decode_pack<Scalar, decltype(bytes)::value>(row + u, scale, ok);
       const V x = P::load(rx + u) * z, y = y_ray * z;
       ok &= (x <= big) & (-x <= big) & (y <= big) & (-y <= big);  // allFinite()
       P::store3(out[u].data(), P::select(ok, x, zero), P::select(ok, y, zero), P::select(ok, z, zero));

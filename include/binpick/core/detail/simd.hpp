@@ -103,6 +103,14 @@ struct Pack {
     z = shuffle_two<type, mask, size, DeinterleaveWithC<size, 2>>(
         shuffle_two<type, mask, size, DeinterleaveFromAb<size, 2>>(a, b, lanes), c, lanes);
   }
+  /// load3 into coordinate rows: x[l], y[l], z[l] = the l-th of the `size` 3-vectors at p.
+  BINPICK_SIMD_INLINE static void load3(const Scalar* p, Scalar* x, Scalar* y, Scalar* z) {
+    type px, py, pz;
+    load3(p, px, py, pz);
+    store(x, px);
+    store(y, py);
+    store(z, pz);
+  }
   /// load3's inverse: x, y, z written as `size` consecutive 3-vectors at p.
   BINPICK_SIMD_INLINE static void store3(Scalar* p, const type& x, const type& y, const type& z) {
     const auto lanes = std::make_index_sequence<std::size_t(size)>();
