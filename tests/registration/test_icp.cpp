@@ -322,6 +322,44 @@ TEST(Icp, DeterministicForAFixedThreadCount) {
   EXPECT_LT((r1.T_target_source.matrix() - r3.T_target_source.matrix()).cwiseAbs().maxCoeff(), 1e-9);
 }
 
+// One workspace across calls of different sizes, with and without source normals, both stages and
+// both loops (point-to-plane's fused pass, point-to-point's batch path): every result has the bits
+// of a call in fresh memory (stale lists or a stale coarse copy would change them).
+TEST(Icp, WorkspaceReusedAcrossCallsGivesFreshResults) {
+  const auto cam = test_camera<double>();
+  const DepthImage<double> depth = floor_and_box_depth();
+  const Eigen::Isometry3d init = start_off_by_3_7_mm();
+  const auto target = make_projective_target(depth.view(), cam);
+  const KnnAssociation<double> knn(target_cloud_with_normals(depth, cam));
+  const OrganizedNormalSettings<double> ns;
+  const PointCloud<double> full = subsample_with_normals(depth.view(), cam, 1, ns);
+  const PointCloud<double> half = subsample_with_normals(depth.view(), cam, 2, ns);
+  PointCloud<double> bare = half;
+  bare.normals.clear();
+  ASSERT_GT(full.size(), 3 * half.size());
+  IcpSettings<double> plane, point;
+  plane.coarse_points = 500;  // two stages for every cloud here
+  point.method = IcpMethod::point_to_point;
+  point.coarse_points = 500;
+  IcpWorkspace<double> ws;
+  const auto same = [](const IcpResult<double>& a, const IcpResult<double>& b) {
+    EXPECT_EQ(a.T_target_source.matrix(), b.T_target_source.matrix());
+    EXPECT_EQ(a.rmse, b.rmse);
+    EXPECT_EQ(a.iterations, b.iterations);
+    EXPECT_EQ(a.inliers, b.inliers);
+  };
+  for (const PointCloud<double>* c : std::vector<const PointCloud<double>*>{&full, &half, &bare, &full, &bare}) {
+    same(icp(*c, target, init, plane, ws), icp(*c, target, init, plane));
+    same(icp(*c, knn, init, point, ws), icp(*c, knn, init, point));
+  }
+  AlignWorkspace<double> aws;
+  for (int stride : {1, 3, 1}) {
+    plane.stride = stride;
+    same(align_depth_view(depth.view(), cam, target, init, plane, ns, aws),
+         align_depth_view(depth.view(), cam, target, init, plane, ns));
+  }
+}
+
 TEST(Icp, BadInputIsAStatusNotACrash) {
   const auto cam = test_camera<double>();
   DepthImage<double> depth(cam.width(), cam.height(), 0.3);

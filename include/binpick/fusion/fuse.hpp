@@ -370,17 +370,19 @@ class Fuser {
     const long nreg = long(views.size()) - 1;
     // An exception must not leave a parallel region: kept per view, the first rethrown after it.
     std::vector<std::exception_ptr> errors(static_cast<std::size_t>(nreg));
+    if (align_.size() < std::size_t(nreg)) align_.resize(std::size_t(nreg));
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1 && nreg > 1)
     for (long k = 0; k < nreg; ++k) {
       const std::size_t i = std::size_t(k) + 1;
       try {
         FusionViewReport<Scalar>& rep = result.views[i];
         const Isometry3<Scalar> T_ref_view_prior = T_ref_base * T_base_views[i];
+        AlignWorkspace<Scalar>& ws = align_[std::size_t(k)];
         const IcpResult<Scalar> r =
             settings.source_normals
-                ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, source_normals)
+                ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, source_normals, ws)
                 : icp(backproject_points(views[i], camera_, st.icp.stride), reference,
-                      T_ref_view_prior, icp_strided);
+                      T_ref_view_prior, icp_strided, ws.icp);
         const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
         rep.icp_status = r.status;
         rep.icp_rmse = r.rmse;
@@ -427,6 +429,7 @@ class Fuser {
   std::vector<std::vector<Scalar>> planes_;
   DepthImage<Scalar> ref_depth_;       // view 1 decimated for the registration's reference
   OrganizedCloud<Scalar> ref_cloud_;   // its cloud and normals, lent to the association each fusion
+  std::vector<AlignWorkspace<Scalar>> align_;  // one per registered view: source clouds, ICP scratch
 };
 
 /// One-shot fusion (builds a Fuser; keep a Fuser instead when fusing every cycle).

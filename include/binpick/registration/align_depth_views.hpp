@@ -7,6 +7,7 @@
 ///   auto target = binpick::make_projective_target(depth1, camera);          // normals from the image
 ///   // per view i
 ///   IcpResult<float> r = binpick::align_depth_view(depth_i, camera, target, T_1_i_kinematic, settings);
+///   // (in a camera loop, pass normal settings and an AlignWorkspace kept across frames)
 ///   if (r.ok()) T_1_i = r.T_target_source;                                  // else keep the prior
 /// \endcode
 /// or, in one call, `align_depth_views(source, source_camera, target, target_camera, T_init, settings)`.
@@ -39,31 +40,38 @@ ProjectiveAssociation<Scalar, Camera> make_projective_target(const DepthImageVie
   return ProjectiveAssociation<Scalar, Camera>(std::move(cloud), target_camera, association);
 }
 
+/// The memory align_depth_view reuses across frames: the source cloud and ICP's scratch. Keep one
+/// per thread of a camera loop and only the first frame allocates.
+template <typename Scalar>
+struct AlignWorkspace {
+  PointCloud<Scalar> source;  ///< the last source view's cloud with normals
+  IcpWorkspace<Scalar> icp;
+};
+
 /// Registers a source depth view to a prepared target (any association strategy). The stride of
 /// `settings` subsamples the source image's rows and columns; the source normals (used to reject
 /// pairs across creases and occlusion edges, `IcpSettings::max_normal_angle`) are estimated at full
-/// resolution at the kept pixels. The source cloud is built in `source_storage` (keep one across
-/// frames and it allocates once).
+/// resolution at the kept pixels. The source cloud and ICP's scratch live in `workspace`.
 template <typename Scalar, typename SourceCamera, typename Association>
 IcpResult<Scalar> align_depth_view(const DepthImageView<Scalar>& source_depth, const SourceCamera& source_camera,
                                    const Association& target, const Isometry3<Scalar>& T_target_source_init,
                                    const IcpSettings<Scalar>& settings, const OrganizedNormalSettings<Scalar>& source_normals,
-                                   PointCloud<Scalar>& source_storage) {
+                                   AlignWorkspace<Scalar>& workspace) {
   require(settings.stride >= 1, "stride", "must be >= 1");
   IcpSettings<Scalar> s = settings;
   s.stride = 1;  // applied to the image grid here
-  subsample_with_normals(source_depth, source_camera, settings.stride, source_normals, source_storage);
-  return icp(source_storage, target, T_target_source_init, s);
+  subsample_with_normals(source_depth, source_camera, settings.stride, source_normals, workspace.source);
+  return icp(workspace.source, target, T_target_source_init, s, workspace.icp);
 }
 
-/// align_depth_view with the source cloud in fresh memory.
+/// align_depth_view in fresh memory.
 template <typename Scalar, typename SourceCamera, typename Association>
 IcpResult<Scalar> align_depth_view(const DepthImageView<Scalar>& source_depth, const SourceCamera& source_camera,
                                    const Association& target, const Isometry3<Scalar>& T_target_source_init,
                                    const IcpSettings<Scalar>& settings = {},
                                    const OrganizedNormalSettings<Scalar>& source_normals = {}) {
-  PointCloud<Scalar> source;
-  return align_depth_view(source_depth, source_camera, target, T_target_source_init, settings, source_normals, source);
+  AlignWorkspace<Scalar> workspace;
+  return align_depth_view(source_depth, source_camera, target, T_target_source_init, settings, source_normals, workspace);
 }
 
 /// One call: builds the projective target from `target_depth` and registers `source_depth` to it.

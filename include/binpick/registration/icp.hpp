@@ -122,6 +122,21 @@ struct IcpResult {
   bool ok() const { return status == IcpStatus::converged || status == IcpStatus::degenerate; }
 };
 
+/// Scratch memory of icp(): the list of usable source points, the coarse stage's copy of the source
+/// and the batch path's arrays (about 1.7 MB for a 640 x 480 source). Pass one to icp() and keep it
+/// across calls (one per thread): only the first call allocates, so a camera loop runs without heap
+/// traffic. (On the 640 x 480 benchmark pair the time per call was the same within the host's noise:
+/// the allocator already reuses blocks of this size.) The source given to icp() must not live in the
+/// workspace.
+template <typename Scalar>
+struct IcpWorkspace {
+  std::vector<std::uint32_t> kept;      ///< indices of the usable source points
+  std::vector<int> block_used;          ///< usable points per block while they are listed
+  std::vector<Vector3<Scalar>> moved;   ///< batch path: the moved source points
+  std::vector<std::ptrdiff_t> partners; ///< batch path: their partners
+  PointCloud<Scalar> coarse;            ///< the coarse stage's points (IcpSettings::coarse_points)
+};
+
 namespace registration_detail {
 
 template <typename T>
@@ -425,7 +440,7 @@ inline bool normals_agree(const Eigen::Matrix<Scalar, 3, 3>& R, const Scalar* ns
 template <typename Scalar, typename Association>
 IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Association& association,
                                 const Isometry3<Scalar>& T_target_source_init, const Isometry3<Scalar>& T_start,
-                                const IcpSettings<Scalar>& settings) {
+                                const IcpSettings<Scalar>& settings, IcpWorkspace<Scalar>& workspace) {
   const std::vector<Vector3<Scalar>>& source_points = source.points;
   static_assert(is_association<Association>::value, "Association must model the concept in correspondence.hpp");
   static_assert(std::is_same<typename Association::Scalar, Scalar>::value, "Association::Scalar must match");
@@ -488,7 +503,9 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   // sums every usable point of the batch path; the fused path sums those among every k-th strided
   // point, k = ceil(strided / kCentroidPoints) (the step is the same to first order for any centre
   // near the points), in Scalar over blocks and in double across them.
-  std::vector<std::uint32_t> kept(fused ? 0 : strided);
+  // Sizes only grow (a resize writes its new elements): the fused path tracks its list's length in n.
+  std::vector<std::uint32_t>& kept = workspace.kept;
+  if (!fused && kept.size() < strided) kept.resize(strided);
   std::size_t used = 0;
   Eigen::Vector3d centroid_src = Eigen::Vector3d::Zero();
   const std::size_t centroid_step = fused ? stride * ((strided + kCentroidPoints - 1) / kCentroidPoints) : stride;
@@ -502,7 +519,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
     }
     centroid_src += Eigen::Vector3d(double(sum[0]), double(sum[1]), double(sum[2]));
   }
-  kept.resize(fused ? 0 : used);
+  if (!fused) kept.resize(used);
   if (!fused && used < min_corr) return result;
   if (used > 0) centroid_src /= double(used);
   // Source point s of the pass (of the strided source, or of the list).
@@ -510,7 +527,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   // then packed in block order: deterministic), later iterations walk the list. Until listed, source
   // point s of the pass is the s-th strided one.
   bool listed = !fused;
-  std::vector<int> block_used;
+  std::vector<int>& block_used = workspace.block_used;
   const auto src_index = [&](std::ptrdiff_t s) { return listed ? std::size_t(kept[std::size_t(s)]) : std::size_t(s) * stride; };
   const auto src = [&](std::ptrdiff_t s) -> const Vector3<Scalar>& { return source_points[src_index(s)]; };
   const auto src_normal = [&](std::ptrdiff_t s) -> const Scalar* {
@@ -529,8 +546,9 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
     return nt.squaredNorm() < Scalar(0.5) || rd::normals_agree(R_ts, src_normal(i), nt.data(), cos_normal);
   };
   Eigen::Isometry3d T = T_start.template cast<double>();
-  std::vector<Vector3<Scalar>> moved(kept.size());
-  std::vector<std::ptrdiff_t> partners;
+  std::vector<Vector3<Scalar>>& moved = workspace.moved;
+  if (!fused) moved.resize(kept.size());
+  std::vector<std::ptrdiff_t>& partners = workspace.partners;
   std::ptrdiff_t n = std::ptrdiff_t(fused ? strided : kept.size());  // points of the pass
   bool converged = false;
 
@@ -688,7 +706,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
       };
       const std::ptrdiff_t blocks = (n + rd::kPlaneBlock - 1) / rd::kPlaneBlock;
       if (!listed) {
-        kept.resize(std::size_t(n));
+        if (kept.size() < std::size_t(n)) kept.resize(std::size_t(n));
         block_used.assign(std::size_t(blocks), 0);
       }
       const rd::PlaneAccumulator acc = rd::parallel_reduce(
@@ -701,7 +719,6 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
           if (m > 0) std::memmove(kept.data() + packed, kept.data() + b * rd::kPlaneBlock, m * sizeof(std::uint32_t));
           packed += m;
         }
-        kept.resize(packed);
         n = std::ptrdiff_t(packed);
         listed = true;
       }
@@ -800,22 +817,26 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
 /// Throws std::invalid_argument for settings out of range or an invalid initial pose; everything else
 /// is reported in the result. Point-to-plane needs target normals (`association.has_target_normals()`),
 /// else throws.
+/// With a workspace kept across calls (IcpWorkspace), calls after the first allocate nothing.
 template <typename Scalar, typename Association>
 IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& association,
-                      const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings = {}) {
+                      const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings,
+                      IcpWorkspace<Scalar>& workspace) {
   namespace rd = registration_detail;
   require(settings.coarse_points >= 0, "coarse_points", "must be >= 0 (0 = one stage)");
   require(settings.stride >= 1, "stride", "must be >= 1");
   const std::size_t strided = (source.points.size() + std::size_t(settings.stride) - 1) / std::size_t(settings.stride);
   const std::size_t coarse_points = std::size_t(settings.coarse_points);
   if (coarse_points == 0 || strided <= 4 * coarse_points || settings.max_iterations < 2)
-    return rd::icp_one_scale(source, association, T_target_source_init, T_target_source_init, settings);
+    return rd::icp_one_scale(source, association, T_target_source_init, T_target_source_init, settings, workspace);
   IcpSettings<Scalar> coarse = settings;
   const std::size_t k = (strided + coarse_points - 1) / coarse_points;
   // The coarse points copied out once: its iterations then read a few hundred kB in order instead of
   // a cache line or two per point of the whole cloud (the same points, in the same order).
   const std::size_t step = std::size_t(settings.stride) * k;
-  PointCloud<Scalar> sub;
+  PointCloud<Scalar>& sub = workspace.coarse;
+  sub.points.clear();
+  sub.normals.clear();
   sub.points.reserve(source.points.size() / step + 1);
   for (std::size_t i = 0; i < source.points.size(); i += step) sub.points.push_back(source.points[i]);
   if (source.has_normals()) {
@@ -826,15 +847,24 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
   coarse.max_iterations = settings.max_iterations / 2;
   coarse.rotation_epsilon *= Scalar(10);
   coarse.translation_epsilon *= Scalar(10);
-  const IcpResult<Scalar> c = rd::icp_one_scale(sub, association, T_target_source_init, T_target_source_init, coarse);
+  const IcpResult<Scalar> c =
+      rd::icp_one_scale(sub, association, T_target_source_init, T_target_source_init, coarse, workspace);
   // A coarse stage that failed (too few pairs, diverged) only cost time: the fine one starts over.
   const bool moved = c.ok() || c.status == IcpStatus::max_iterations;
   IcpSettings<Scalar> fine = settings;
   fine.max_iterations = settings.max_iterations - c.iterations;
   IcpResult<Scalar> r = rd::icp_one_scale(source, association, T_target_source_init,
-                                          moved ? c.T_target_source : T_target_source_init, fine);
+                                          moved ? c.T_target_source : T_target_source_init, fine, workspace);
   r.iterations += c.iterations;
   return r;
+}
+
+/// icp() with its scratch memory allocated for this call.
+template <typename Scalar, typename Association>
+IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& association,
+                      const Isometry3<Scalar>& T_target_source_init, const IcpSettings<Scalar>& settings = {}) {
+  IcpWorkspace<Scalar> workspace;
+  return icp(source, association, T_target_source_init, settings, workspace);
 }
 
 }  // namespace binpick
