@@ -255,10 +255,11 @@ void check_depth_subsample_matches_organized() {
 
 // backproject_organized at stride 1 (a pinhole row a pack at a time) gives the per-pixel rule's bits
 // at every SIMD level and for every encoding: valid depths, zeros, negatives, NaN, inf and values
-// whose backprojection overflows become zero points; odd widths exercise the scalar tail.
+// whose backprojection overflows become zero points; odd widths exercise the scalar tail. Rows split
+// over two threads give the same cloud.
 template <typename Scalar>
 void check_backprojection_matches_per_pixel() {
-  const int w = *rc::gen::inRange(1, 40), h = *rc::gen::inRange(1, 6);
+  const int w = *rc::gen::inRange(1, 40), h = *rc::gen::inRange(1, 24);
   const Scalar f = Scalar(uniform(0.5, 600));
   const PinholeCamera<Scalar> cam(f, Scalar(uniform(0.5, 600)), Scalar(uniform(-5, w + 5)), Scalar(uniform(-5, h + 5)),
                                   w, h);
@@ -297,6 +298,10 @@ void check_backprojection_matches_per_pixel() {
           RC_ASSERT(cloud.points[cloud.index(u, v)] == expected);
           RC_ASSERT(cloud.points[cloud.index(u, v)].allFinite());
         }
+      OrganizedCloud<Scalar> threaded;
+      backproject_organized(view, cam, 1, threaded, 2);
+      RC_ASSERT(threaded.width == w && threaded.height == h);
+      RC_ASSERT(threaded.points == cloud.points);
     }
 }
 

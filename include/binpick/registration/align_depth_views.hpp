@@ -35,7 +35,7 @@ ProjectiveAssociation<Scalar, Camera> make_projective_target(const DepthImageVie
                                                              const OrganizedNormalSettings<Scalar>& normals = {},
                                                              OrganizedCloud<Scalar> storage = {}) {
   OrganizedCloud<Scalar> cloud = std::move(storage);
-  backproject_organized(target_depth, target_camera, 1, cloud);
+  backproject_organized(target_depth, target_camera, 1, cloud, normals.num_threads);
   estimate_organized_normals(cloud, normals);
   return ProjectiveAssociation<Scalar, Camera>(std::move(cloud), target_camera, association);
 }

@@ -381,7 +381,7 @@ void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& c
     // out.normals', and the valid pixels moved forward in both (no allocation once `out` is kept).
     OrganizedCloud<Scalar> organized;
     organized.points.swap(out.points);
-    backproject_organized(depth, camera, 1, organized);
+    backproject_organized(depth, camera, 1, organized, settings.num_threads);
     out.normals.resize(organized.points.size());
     registration_detail::organized_normals_into(organized, settings, registration_detail::resolve_threads(settings.num_threads),
                                                 out.normals.data());

@@ -23,6 +23,7 @@
 #include "binpick/core/errors.hpp"
 #include "binpick/core/pose.hpp"
 #include "binpick/core/ray_table.hpp"
+#include "binpick/registration/detail/parallel.hpp"
 
 namespace binpick {
 
@@ -120,11 +121,12 @@ BINPICK_SIMD_END
 /// One point per pixel of every `stride`-th row and column of `depth` (stride 1: every pixel; the
 /// cloud is then ceil(width/stride) × ceil(height/stride)), in the camera frame [m], written into
 /// `cloud` (its points replaced, its normals left alone) reusing its memory: a cloud kept across frames
-/// allocates once. Throws std::invalid_argument when the image size differs from the camera's or
+/// allocates once. Rows are split over `num_threads` threads (0 = all cores; the points do not
+/// depend on it). Throws std::invalid_argument when the image size differs from the camera's or
 /// stride < 1.
 template <typename Scalar, typename Camera>
 void backproject_organized(const DepthImageView<Scalar>& depth, const Camera& camera, int stride,
-                           OrganizedCloud<Scalar>& cloud) {
+                           OrganizedCloud<Scalar>& cloud, int num_threads = 1) {
   static_assert(is_camera_model<Camera>::value, "Camera must model the camera concept (camera_model.hpp)");
   require(stride >= 1, "stride", "must be >= 1");
   require(depth.width() == camera.width() && depth.height() == camera.height(), "depth",
@@ -134,10 +136,14 @@ void backproject_organized(const DepthImageView<Scalar>& depth, const Camera& ca
   cloud.points.resize(std::size_t(cloud.width) * std::size_t(cloud.height));  // every point is written below
   // The encoding switch is taken once, not per pixel.
   const registration_detail::PixelBackprojector<Scalar, Camera> point(camera);
+  const int threads = registration_detail::resolve_threads(num_threads);
   depth.dispatch([&](auto tag) {
     using T = decltype(tag);
     const Scalar scale = depth.metres_per_unit();
-    for (int v = 0; v < cloud.height; ++v) {
+    // Threaded like the normals that follow (contiguous row ranges): each thread then reads back
+    // mostly points it wrote itself.
+    registration_detail::parallel_for(cloud.height, threads, [&](std::ptrdiff_t vi) {
+      const int v = int(vi);
       const T* row = depth.template row<T>(v * stride);
       Vector3<Scalar>* out = cloud.points.data() + cloud.index(0, v);
       int u = 0;
@@ -148,7 +154,7 @@ void backproject_organized(const DepthImageView<Scalar>& depth, const Camera& ca
         const Scalar z = DepthImageView<Scalar>::decode(row[std::size_t(u) * std::size_t(stride)], scale);
         out[u] = point(u * stride, v * stride, z);
       }
-    }
+    }, 8);
   });
 }
 
