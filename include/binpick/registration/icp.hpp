@@ -488,15 +488,17 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   // A point is used when finite and, with source normals, when it has one (a point without a normal,
   // likely on an edge, could never pair: see compatible() below).
   const Scalar finite_max = std::numeric_limits<Scalar>::max();
+  // The tests are combined with & on ints, not &&: no branch per test.
+  const auto within = [&](Scalar v) { return int(std::abs(v) <= finite_max); };
   const auto usable = [&](std::size_t i) {
     const Scalar* p = source_points[i].data();
-    bool ok = (std::abs(p[0]) <= finite_max) & (std::abs(p[1]) <= finite_max) & (std::abs(p[2]) <= finite_max);
+    int ok = within(p[0]) & within(p[1]) & within(p[2]);
     if (use_normals) {  // a unit normal (the norm test fails for NaN, the bounds for inf)
       const Scalar* nrm = source.normals[i].data();
-      ok &= (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2] >= Scalar(0.5)) & (std::abs(nrm[0]) <= finite_max) &
-            (std::abs(nrm[1]) <= finite_max) & (std::abs(nrm[2]) <= finite_max);
+      ok &= int(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2] >= Scalar(0.5)) & within(nrm[0]) & within(nrm[1]) &
+            within(nrm[2]);
     }
-    return ok;
+    return ok != 0;
   };
   // The batch path: the indices of the usable points among every stride-th one, found once (4 bytes a
   // point instead of a copy of points and normals), branch-free. The centroid (the rotation centre c)

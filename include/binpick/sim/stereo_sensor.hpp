@@ -306,6 +306,7 @@ class StereoSensor {
     if (threads == 0) threads = omp_get_num_procs();
 #else
     threads = 1;
+    (void)threads;  // no parallel region without OpenMP
 #endif
     // Speckle: one log-normal factor per camera and grid cell of the left image (SENSOR_MODEL step 3).
     const int cell = scaled_px(s_.errors.speckle_cell_px);

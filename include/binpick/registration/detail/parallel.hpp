@@ -33,6 +33,7 @@ void parallel_for(std::ptrdiff_t n, int threads, F&& f, std::ptrdiff_t min_paral
   }
 #else
   (void)threads;
+  (void)min_parallel;
 #endif
   for (std::ptrdiff_t i = 0; i < n; ++i) f(i);
 }
@@ -63,6 +64,8 @@ Acc parallel_reduce(std::ptrdiff_t n, int threads, const Acc& zero, F&& f, Merge
   }
 #else
   (void)threads;
+  (void)merge;
+  (void)min_parallel;
 #endif
   Acc total = zero;
   for (std::ptrdiff_t i = 0; i < n; ++i) f(total, i);
