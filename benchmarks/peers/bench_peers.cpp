@@ -375,37 +375,38 @@ void bench_icp_projective(const bench::Options& opt) {
   cv::eigen2cv(Eigen::Matrix4d(init.matrix()), init_cv);
   // Per call OpenCV prepares both frames (pyramids, normals), or, with the destination's frame cache
   // kept (OdometryFrame; compute() reuses a prepared cache), the source only.
-  for (const bool dst_cached : {false, true})
-  for (const double part : {0.07, 1.0}) {
-    for (const int threads : opt.threads) {
-      cv::setNumThreads(threads);
-      cv::rgbd::ICPOdometry odo(K, 0.0f, 4.0f, 0.07f, float(part));
-      cv::Mat Rt;
-      bool ok = false;
-      cv::Ptr<cv::rgbd::OdometryFrame> dst_frame = cv::rgbd::OdometryFrame::create(cv::Mat(), dst);
-      odo.prepareFrameCache(dst_frame, cv::rgbd::OdometryFrame::CACHE_DST);
-      const bench::Stats st = bench::measure(
-          [&] {
-            if (dst_cached) {
-              cv::Ptr<cv::rgbd::OdometryFrame> src_frame = cv::rgbd::OdometryFrame::create(cv::Mat(), src);
-              ok = odo.compute(src_frame, dst_frame, Rt, init_cv);
-            } else {
-              ok = odo.compute(cv::Mat(), src, cv::Mat(), cv::Mat(), dst, cv::Mat(), Rt, init_cv);
-            }
-            bench::do_not_optimize(Rt);
-          },
-          opt.warmup, opt.trials);
-      // Rt maps source-frame points into the destination (target) frame: dst_p = Rt · src_p.
-      Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
-      if (ok && !Rt.empty()) cv::cv2eigen(Rt, T);
-      bench::JsonLine j("icp_projective");
-      if (part == 1.0 && dst_cached) g_time[key("projective_per_view", "opencv", threads)] = st.median;
-      if (part == 1.0 && !dst_cached) g_time[key("projective_kept", "opencv", threads)] = st.median;
-      j.str("impl", "opencv").str("variant", "rgbd::ICPOdometry").str("prepared_per_call", dst_cached ? "source" : "source and target")
-          .num("width", W).num("height", H).num("threads", threads).num("points_part", part)
-          .str("settings", part == 0.07 ? "defaults (maxPointsPart 0.07, iterCounts 7,7,7,10)" : "maxPointsPart 1.0, iterCounts 7,7,7,10")
-          .stats(st).str("status", ok ? "ok" : "failed");
-      add_score(j, score(source, yardstick, T, max_d), pose_error(T, T_true)).print();
+  for (const bool dst_cached : {false, true}) {
+    for (const double part : {0.07, 1.0}) {
+      for (const int threads : opt.threads) {
+        cv::setNumThreads(threads);
+        cv::rgbd::ICPOdometry odo(K, 0.0f, 4.0f, 0.07f, float(part));
+        cv::Mat Rt;
+        bool ok = false;
+        cv::Ptr<cv::rgbd::OdometryFrame> dst_frame = cv::rgbd::OdometryFrame::create(cv::Mat(), dst);
+        odo.prepareFrameCache(dst_frame, cv::rgbd::OdometryFrame::CACHE_DST);
+        const bench::Stats st = bench::measure(
+            [&] {
+              if (dst_cached) {
+                cv::Ptr<cv::rgbd::OdometryFrame> src_frame = cv::rgbd::OdometryFrame::create(cv::Mat(), src);
+                ok = odo.compute(src_frame, dst_frame, Rt, init_cv);
+              } else {
+                ok = odo.compute(cv::Mat(), src, cv::Mat(), cv::Mat(), dst, cv::Mat(), Rt, init_cv);
+              }
+              bench::do_not_optimize(Rt);
+            },
+            opt.warmup, opt.trials);
+        // Rt maps source-frame points into the destination (target) frame: dst_p = Rt · src_p.
+        Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+        if (ok && !Rt.empty()) cv::cv2eigen(Rt, T);
+        bench::JsonLine j("icp_projective");
+        if (part == 1.0 && dst_cached) g_time[key("projective_per_view", "opencv", threads)] = st.median;
+        if (part == 1.0 && !dst_cached) g_time[key("projective_kept", "opencv", threads)] = st.median;
+        j.str("impl", "opencv").str("variant", "rgbd::ICPOdometry")
+            .str("prepared_per_call", dst_cached ? "source" : "source and target").num("width", W).num("height", H).num("threads", threads).num("points_part", part)
+            .str("settings", part == 0.07 ? "defaults (maxPointsPart 0.07, iterCounts 7,7,7,10)" : "maxPointsPart 1.0, iterCounts 7,7,7,10")
+            .stats(st).str("status", ok ? "ok" : "failed");
+        add_score(j, score(source, yardstick, T, max_d), pose_error(T, T_true)).print();
+      }
     }
   }
   cv::setNumThreads(-1);
