@@ -322,10 +322,12 @@ void bench_icp_projective(const bench::Options& opt) {
     OrganizedNormalSettings<float> ns;
     ns.num_threads = threads;
     IcpResult<float> r;
-    // One JSON line (and the time the targets read) per way of calling.
-    const auto report = [&](const char* memory, const char* prepared, const bench::Stats& st) {
+    // One JSON line (and the time the targets read) per way of calling: "fresh", "kept" or
+    // "per_view" (kept memory, the target prepared before the timing).
+    const auto report = [&](const std::string& mode, const bench::Stats& st) {
       const Eigen::Matrix4d T = r.T_target_source.matrix().cast<double>();
-      const std::string mode = std::string(prepared) == "source" ? "per_view" : memory;
+      const char* memory = mode == "fresh" ? "fresh" : "kept";
+      const char* prepared = mode == "per_view" ? "source" : "source and target";
       g_time[key("projective_" + mode, "binpick", threads)] = st.median;
       bench::JsonLine j("icp_projective");
       j.str("impl", "binpick").str("memory", memory).str("prepared_per_call", prepared).num("width", W)
@@ -334,7 +336,7 @@ void bench_icp_projective(const bench::Options& opt) {
           .num("iterations", r.iterations).num("rmse_reported", r.rmse).num("inliers", double(r.inliers)).num("goal_ms", 5);
       add_score(j, score(source, yardstick, T, max_d), pose_error(T, T_true)).print();
     };
-    report("fresh", "source and target", bench::measure(
+    report("fresh", bench::measure(
                         [&] {
                           r = align_depth_views(source_depth.view(), cam, target_depth.view(), cam,
                                                 Isometry3<float>(init.cast<float>()), s, ProjectiveAssociationSettings{}, ns);
@@ -345,7 +347,7 @@ void bench_icp_projective(const bench::Options& opt) {
     // through release_target()), so no allocation and no page faults after the first frame.
     OrganizedCloud<float> target_storage;
     AlignWorkspace<float> workspace;
-    report("kept", "source and target",
+    report("kept",
            bench::measure(
                [&] {
                  auto tgt = make_projective_target(target_depth.view(), cam, ProjectiveAssociationSettings{}, ns,
@@ -359,7 +361,7 @@ void bench_icp_projective(const bench::Options& opt) {
     // Per view: the target prepared once, as the fusion prepares view 1 once per cycle and a camera
     // stream has its previous frame prepared; timed is the source view's preparation and the ICP.
     const auto prepared = make_projective_target(target_depth.view(), cam, ProjectiveAssociationSettings{}, ns);
-    report("kept", "source", bench::measure(
+    report("per_view", bench::measure(
                                  [&] {
                                    r = align_depth_view(source_depth.view(), cam, prepared,
                                                         Isometry3<float>(init.cast<float>()), s, ns, workspace);
@@ -382,8 +384,11 @@ void bench_icp_projective(const bench::Options& opt) {
         cv::rgbd::ICPOdometry odo(K, 0.0f, 4.0f, 0.07f, float(part));
         cv::Mat Rt;
         bool ok = false;
-        cv::Ptr<cv::rgbd::OdometryFrame> dst_frame = cv::rgbd::OdometryFrame::create(cv::Mat(), dst);
-        odo.prepareFrameCache(dst_frame, cv::rgbd::OdometryFrame::CACHE_DST);
+        cv::Ptr<cv::rgbd::OdometryFrame> dst_frame;
+        if (dst_cached) {
+          dst_frame = cv::rgbd::OdometryFrame::create(cv::Mat(), dst);
+          odo.prepareFrameCache(dst_frame, cv::rgbd::OdometryFrame::CACHE_DST);
+        }
         const bench::Stats st = bench::measure(
             [&] {
               if (dst_cached) {
