@@ -31,7 +31,14 @@ if [ "$simtool" != "-" ]; then
   rows=$(($(wc -l <"$tmp/sim1.rows") - 1))
   [ "$rows" -ge 8 ] || fail "binpick_sim ran only $rows cycles"
   grep -q '"fired": [1-9]' "$tmp/sim1.json" || fail "binpick_sim injected no fault"
-  echo "binpick_sim: $rows cycles"
+  # The summary's grip counts are the CSV's: a grip per cycle that picked or failed its grasp.
+  tried_json=$(grep -o '"grips_tried": [0-9]*' "$tmp/sim1.json" | awk '{s += $2} END {print s + 0}')
+  held_json=$(grep -o '"grips_held": [0-9]*' "$tmp/sim1.json" | awk '{s += $2} END {print s + 0}')
+  tried_csv=$(awk -F, 'NR > 1 && ($5 == "picked" || $5 == "grasp_failed")' "$tmp/sim1.csv" | wc -l)
+  held_csv=$(awk -F, 'NR > 1 && $5 == "picked"' "$tmp/sim1.csv" | wc -l)
+  [ "$tried_json" -eq "$tried_csv" ] && [ "$tried_json" -gt 0 ] || fail "grips tried: summary $tried_json, CSV $tried_csv"
+  [ "$held_json" -eq "$held_csv" ] || fail "grips held: summary $held_json, CSV $held_csv"
+  echo "binpick_sim: $rows cycles, $tried_csv grips tried, $held_csv held"
   cmp -s "$tmp/sim1.rows" "$tmp/sim2.rows" || { diff "$tmp/sim1.rows" "$tmp/sim2.rows"; fail "binpick_sim cycles differ"; }
   cmp -s "$tmp/sim1.json" "$tmp/sim2.json" || { diff "$tmp/sim1.json" "$tmp/sim2.json"; fail "binpick_sim summaries differ"; }
 fi

@@ -3,7 +3,8 @@
 // row fail; the four strategies run on the same piles: ours (multi-view + active vision, sensing in
 // parallel with the place action), A (single view + active vision), B (random sensing path +
 // multi-view) and C (stop-and-go multi-view, Robot Fusion [12]). Prints a Table-III-like table per
-// strategy, the mean sensing time in takt and the processing time per cycle; --csv writes one row per
+// strategy (with what limits the rates: grips held per grip tried and why the others failed), the mean
+// sensing time in takt and the processing time per cycle; --csv writes one row per
 // cycle, --json prints a summary for scripts, --out writes pictures of one cycle of ours.
 // --fault-rate injects driver faults on a seeded schedule (faulty_drivers.hpp) and reports what each
 // cost; --compute-time puts a fixed compute time on the simulated clock instead of the measured one,
@@ -64,6 +65,26 @@ struct Options {
   double compute_time = -1;  // fixed compute time per cycle on the simulated clock [s]; < 0: measured
 };
 
+// Grips of a run by outcome (the simulated world's judgement, sim/grasp_model.hpp): what limits a
+// complete rate. A grip that matched no true grasp missed one or more of the tolerances, counted
+// each; the nearest true grasp's errors decide which.
+struct GripLedger {
+  int tried = 0, held = 0, no_matching_grasp = 0, part_collision = 0, bin_collision = 0;
+  int missed_position = 0, missed_approach = 0, missed_closing = 0;
+  int nothing_recognized = 0;  // cycles without a grasp to try (the next one searches)
+  void merge(const GripLedger& o) {
+    tried += o.tried;
+    held += o.held;
+    no_matching_grasp += o.no_matching_grasp;
+    part_collision += o.part_collision;
+    bin_collision += o.bin_collision;
+    missed_position += o.missed_position;
+    missed_approach += o.missed_approach;
+    missed_closing += o.missed_closing;
+    nothing_recognized += o.nothing_recognized;
+  }
+};
+
 struct RunResult {
   cycle::Strategy strategy;
   sim::PartType type;
@@ -71,6 +92,7 @@ struct RunResult {
   std::vector<std::string> csv_rows;
   simcell::FaultLedger faults;
   int wrong_pose_cycles = 0;
+  GripLedger grips;
   std::vector<double> sensing_in_takt, processing_ms, fusion_ms, estimation_ms, planning_ms, phase_ms, cycle_s;
 };
 
@@ -212,6 +234,26 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
       rr.phase_ms.push_back(r.takt.processing * 1e3);
     }
     rr.cycle_s.push_back(r.takt.cycle_time);
+    if (r.status == cycle::CycleStatus::nothing_recognized) ++rr.grips.nothing_recognized;
+    if (picked || r.status == cycle::CycleStatus::grasp_failed) {
+      ++rr.grips.tried;
+      rr.grips.held += picked;
+      if (!picked) {
+        const auto& oc = cell.gripper->last_outcome();
+        const auto& tol = cell.gripper->settings();
+        switch (cell.gripper->last_status()) {
+          case sim::PickStatus::no_matching_grasp:
+            ++rr.grips.no_matching_grasp;
+            rr.grips.missed_position += !(oc.nearest_position_error <= tol.position_tolerance);
+            rr.grips.missed_approach += !(oc.nearest_angle_error <= tol.angle_tolerance);
+            rr.grips.missed_closing += !(oc.nearest_closing_error <= tol.angle_tolerance);
+            break;
+          case sim::PickStatus::part_collision: ++rr.grips.part_collision; break;
+          case sim::PickStatus::bin_collision: ++rr.grips.bin_collision; break;
+          default: break;
+        }
+      }
+    }
     // Why a cycle did not pick: the simulated world's judgement of a failed grip, else the status.
     const char* cause = r.status == cycle::CycleStatus::grasp_failed ? sim::to_string(cell.gripper->last_status())
                         : picked                                      ? "-"
@@ -387,10 +429,12 @@ int main(int argc, char** argv) {
     struct Row {
       double avg, lo, hi, se;
       Params p;
+      GripLedger grips;
     };
     std::vector<Row> rows;
     for (auto t : o.types) {
       std::vector<double> rates;
+      GripLedger grips;
       for (const auto& r : results) {
         if (r.strategy != s || r.type != t) continue;
         rates.push_back(r.initial > 0 ? double(r.picked) / double(r.initial) : 1.0);
@@ -404,12 +448,13 @@ int main(int argc, char** argv) {
         searches += r.searches;
         faults.merge(r.faults);
         wrong_pose_cycles += r.wrong_pose_cycles;
+        grips.merge(r.grips);
         ++runs;
       }
       Params p = params_of(t);
       if (s == cycle::Strategy::single_view) p.n = 1;
       rows.push_back({mean(rates), rates.empty() ? 0 : *std::min_element(rates.begin(), rates.end()),
-                      rates.empty() ? 0 : *std::max_element(rates.begin(), rates.end()), standard_error(rates), p});
+                      rates.empty() ? 0 : *std::max_element(rates.begin(), rates.end()), standard_error(rates), p, grips});
     }
     if (!o.json) {
       auto line = [&](const char* name, auto f) {
@@ -431,6 +476,24 @@ int main(int argc, char** argv) {
       line("Lowest complete rate", [&](const Row& r) { return pct(r.lo); });
       line("Highest complete rate", [&](const Row& r) { return pct(r.hi); });
       line("Std. error of the average", [&](const Row& r) { return pct(r.se); });
+      // What limits the rates: grips held per grip tried, and why the others failed.
+      line("Grips held / tried", [](const Row& r) {
+        char b[64];
+        std::snprintf(b, sizeof b, "%d/%d (%.0f%%)", r.grips.held, r.grips.tried,
+                      r.grips.tried ? 100.0 * r.grips.held / r.grips.tried : 0.0);
+        return std::string(b);
+      });
+      line("Missed pos. / appr. / clos", [](const Row& r) {
+        char b[64];
+        std::snprintf(b, sizeof b, "%d / %d / %d", r.grips.missed_position, r.grips.missed_approach, r.grips.missed_closing);
+        return std::string(b);
+      });
+      line("Hit parts / bin", [](const Row& r) {
+        char b[64];
+        std::snprintf(b, sizeof b, "%d / %d", r.grips.part_collision, r.grips.bin_collision);
+        return std::string(b);
+      });
+      line("Cycles recognizing nothing", [](const Row& r) { return std::to_string(r.grips.nothing_recognized); });
       std::printf("Sensing in takt: %.3f s mean over %zu placing cycles (paper: 0.635 s ours, ~6 s Robot Fusion); "
                   "searches: %.2f per run\n",
                   mean(takt), takt.size(), runs ? double(searches) / runs : 0.0);
@@ -453,7 +516,12 @@ int main(int argc, char** argv) {
          << ", \"min_complete_rate\": " << json_number(r.lo) << ", \"max_complete_rate\": " << json_number(r.hi)
          << ", \"complete_rate_stderr\": " << json_number(r.se)
          << ", \"views\": " << r.p.n << ", \"interval_ms\": " << json_number(r.p.t_ms) << ", \"speed_percent\": "
-         << json_number(r.p.v_percent) << "}";
+         << json_number(r.p.v_percent) << ", \"grips_tried\": " << r.grips.tried << ", \"grips_held\": " << r.grips.held
+         << ", \"grip_failures\": {\"no_matching_grasp\": " << r.grips.no_matching_grasp
+         << ", \"missed_position\": " << r.grips.missed_position << ", \"missed_approach\": " << r.grips.missed_approach
+         << ", \"missed_closing\": " << r.grips.missed_closing << ", \"part_collision\": " << r.grips.part_collision
+         << ", \"bin_collision\": " << r.grips.bin_collision << "}, \"nothing_recognized_cycles\": "
+         << r.grips.nothing_recognized << "}";
     }
     js << "}, \"sensing_in_takt_s\": " << json_number(mean(takt)) << ", \"processing_ms\": " << json_number(mean(proc))
        << ", \"estimation_ms\": " << json_number(mean(est)) << ", \"processing_phase_ms\": " << json_number(mean(phase))

@@ -43,6 +43,8 @@ class SimGripper {
   const int* outcomes() const { return outcomes_; }
   /// The judgement of the last grip (the cause column of a failed grasp).
   sim::PickStatus last_status() const { return last_; }
+  /// The judge's tolerances.
+  const sim::GraspModelSettings<Scalar>& settings() const { return s_; }
   /// The whole judgement of the last grip (errors to the nearest true grasp, for diagnostics).
   const sim::PickOutcome<Scalar>& last_outcome() const { return last_outcome_; }
 
