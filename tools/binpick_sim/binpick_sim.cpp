@@ -483,7 +483,7 @@ int main(int argc, char** argv) {
                       r.grips.tried ? 100.0 * r.grips.held / r.grips.tried : 0.0);
         return std::string(b);
       });
-      line("Missed pos. / appr. / clos", [](const Row& r) {
+      line("Missed pos./appr./closing", [](const Row& r) {
         char b[64];
         std::snprintf(b, sizeof b, "%d / %d / %d", r.grips.missed_position, r.grips.missed_approach, r.grips.missed_closing);
         return std::string(b);
