@@ -404,8 +404,7 @@ void bench_icp_projective(const bench::Options& opt) {
         Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
         if (ok && !Rt.empty()) cv::cv2eigen(Rt, T);
         bench::JsonLine j("icp_projective");
-        if (part == 1.0 && dst_cached) g_time[key("projective_per_view", "opencv", threads)] = st.median;
-        if (part == 1.0 && !dst_cached) g_time[key("projective_kept", "opencv", threads)] = st.median;
+        if (part == 1.0) g_time[key(dst_cached ? "projective_per_view" : "projective_kept", "opencv", threads)] = st.median;
         j.str("impl", "opencv").str("variant", "rgbd::ICPOdometry")
             .str("prepared_per_call", dst_cached ? "source" : "source and target").num("width", W).num("height", H).num("threads", threads).num("points_part", part)
             .str("settings", part == 0.07 ? "defaults (maxPointsPart 0.07, iterCounts 7,7,7,10)" : "maxPointsPart 1.0, iterCounts 7,7,7,10")

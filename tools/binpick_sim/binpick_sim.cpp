@@ -17,6 +17,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <numeric>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -65,22 +66,21 @@ struct Options {
   double compute_time = -1;  // fixed compute time per cycle on the simulated clock [s]; < 0: measured
 };
 
-// Grips of a run by outcome (the simulated world's judgement, sim/grasp_model.hpp): what limits a
-// complete rate. A grip that matched no true grasp missed one or more of the tolerances, counted
-// each; the nearest true grasp's errors decide which.
+// Grips of a run by the simulated world's verdict (sim/grasp_model.hpp): what limits a complete
+// rate. A grip that matched no true grasp missed one or more of the tolerances, counted each; the
+// nearest true grasp's errors decide which.
 struct GripLedger {
-  int tried = 0, held = 0, no_matching_grasp = 0, part_collision = 0, bin_collision = 0;
-  int missed_position = 0, missed_approach = 0, missed_closing = 0;
+  static constexpr int kVerdicts = 4;  // the values of sim::PickStatus
+  enum Miss { position, approach, closing, kMisses };
+  int verdicts[kVerdicts] = {};  // grips per sim::PickStatus (success: held)
+  int missed[kMisses] = {};
   int nothing_recognized = 0;  // cycles without a grasp to try (the next one searches)
+  int of(sim::PickStatus s) const { return verdicts[int(s)]; }
+  int held() const { return of(sim::PickStatus::success); }
+  int tried() const { return std::accumulate(std::begin(verdicts), std::end(verdicts), 0); }
   void merge(const GripLedger& o) {
-    tried += o.tried;
-    held += o.held;
-    no_matching_grasp += o.no_matching_grasp;
-    part_collision += o.part_collision;
-    bin_collision += o.bin_collision;
-    missed_position += o.missed_position;
-    missed_approach += o.missed_approach;
-    missed_closing += o.missed_closing;
+    for (int k = 0; k < kVerdicts; ++k) verdicts[k] += o.verdicts[k];
+    for (int k = 0; k < kMisses; ++k) missed[k] += o.missed[k];
     nothing_recognized += o.nothing_recognized;
   }
 };
@@ -236,22 +236,14 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
     rr.cycle_s.push_back(r.takt.cycle_time);
     if (r.status == cycle::CycleStatus::nothing_recognized) ++rr.grips.nothing_recognized;
     if (picked || r.status == cycle::CycleStatus::grasp_failed) {
-      ++rr.grips.tried;
-      rr.grips.held += picked;
-      if (!picked) {
+      const sim::PickStatus verdict = picked ? sim::PickStatus::success : cell.gripper->last_status();
+      ++rr.grips.verdicts[int(verdict)];
+      if (verdict == sim::PickStatus::no_matching_grasp) {
         const auto& oc = cell.gripper->last_outcome();
         const auto& tol = cell.gripper->settings();
-        switch (cell.gripper->last_status()) {
-          case sim::PickStatus::no_matching_grasp:
-            ++rr.grips.no_matching_grasp;
-            rr.grips.missed_position += !(oc.nearest_position_error <= tol.position_tolerance);
-            rr.grips.missed_approach += !(oc.nearest_angle_error <= tol.angle_tolerance);
-            rr.grips.missed_closing += !(oc.nearest_closing_error <= tol.angle_tolerance);
-            break;
-          case sim::PickStatus::part_collision: ++rr.grips.part_collision; break;
-          case sim::PickStatus::bin_collision: ++rr.grips.bin_collision; break;
-          default: break;
-        }
+        rr.grips.missed[GripLedger::position] += !(oc.nearest_position_error <= tol.position_tolerance);
+        rr.grips.missed[GripLedger::approach] += !(oc.nearest_angle_error <= tol.angle_tolerance);
+        rr.grips.missed[GripLedger::closing] += !(oc.nearest_closing_error <= tol.angle_tolerance);
       }
     }
     // Why a cycle did not pick: the simulated world's judgement of a failed grip, else the status.
@@ -479,18 +471,19 @@ int main(int argc, char** argv) {
       // What limits the rates: grips held per grip tried, and why the others failed.
       line("Grips held / tried", [](const Row& r) {
         char b[64];
-        std::snprintf(b, sizeof b, "%d/%d (%.0f%%)", r.grips.held, r.grips.tried,
-                      r.grips.tried ? 100.0 * r.grips.held / r.grips.tried : 0.0);
+        std::snprintf(b, sizeof b, "%d/%d (%.0f%%)", r.grips.held(), r.grips.tried(),
+                      r.grips.tried() ? 100.0 * r.grips.held() / r.grips.tried() : 0.0);
         return std::string(b);
       });
       line("Missed pos./appr./closing", [](const Row& r) {
         char b[64];
-        std::snprintf(b, sizeof b, "%d / %d / %d", r.grips.missed_position, r.grips.missed_approach, r.grips.missed_closing);
+        std::snprintf(b, sizeof b, "%d / %d / %d", r.grips.missed[GripLedger::position], r.grips.missed[GripLedger::approach],
+                      r.grips.missed[GripLedger::closing]);
         return std::string(b);
       });
       line("Hit parts / bin", [](const Row& r) {
         char b[64];
-        std::snprintf(b, sizeof b, "%d / %d", r.grips.part_collision, r.grips.bin_collision);
+        std::snprintf(b, sizeof b, "%d / %d", r.grips.of(sim::PickStatus::part_collision), r.grips.of(sim::PickStatus::bin_collision));
         return std::string(b);
       });
       line("Cycles recognizing nothing", [](const Row& r) { return std::to_string(r.grips.nothing_recognized); });
@@ -516,11 +509,13 @@ int main(int argc, char** argv) {
          << ", \"min_complete_rate\": " << json_number(r.lo) << ", \"max_complete_rate\": " << json_number(r.hi)
          << ", \"complete_rate_stderr\": " << json_number(r.se)
          << ", \"views\": " << r.p.n << ", \"interval_ms\": " << json_number(r.p.t_ms) << ", \"speed_percent\": "
-         << json_number(r.p.v_percent) << ", \"grips_tried\": " << r.grips.tried << ", \"grips_held\": " << r.grips.held
-         << ", \"grip_failures\": {\"no_matching_grasp\": " << r.grips.no_matching_grasp
-         << ", \"missed_position\": " << r.grips.missed_position << ", \"missed_approach\": " << r.grips.missed_approach
-         << ", \"missed_closing\": " << r.grips.missed_closing << ", \"part_collision\": " << r.grips.part_collision
-         << ", \"bin_collision\": " << r.grips.bin_collision << "}, \"nothing_recognized_cycles\": "
+         << json_number(r.p.v_percent) << ", \"grips_tried\": " << r.grips.tried() << ", \"grips_held\": " << r.grips.held()
+         << ", \"grip_failures\": {\"no_matching_grasp\": " << r.grips.of(sim::PickStatus::no_matching_grasp)
+         << ", \"missed_position\": " << r.grips.missed[GripLedger::position]
+         << ", \"missed_approach\": " << r.grips.missed[GripLedger::approach]
+         << ", \"missed_closing\": " << r.grips.missed[GripLedger::closing]
+         << ", \"part_collision\": " << r.grips.of(sim::PickStatus::part_collision)
+         << ", \"bin_collision\": " << r.grips.of(sim::PickStatus::bin_collision) << "}, \"nothing_recognized_cycles\": "
          << r.grips.nothing_recognized << "}";
     }
     js << "}, \"sensing_in_takt_s\": " << json_number(mean(takt)) << ", \"processing_ms\": " << json_number(mean(proc))
