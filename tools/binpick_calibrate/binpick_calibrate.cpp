@@ -73,12 +73,9 @@ int main(int argc, char** argv) {
   std::vector<double> speeds{40, 60, 80}, intervals{30, 60};
   std::uint64_t seed = 1;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto next = [&]() -> std::string {
-        if (i + 1 >= argc) throw std::invalid_argument("missing value after " + a);
-        return argv[++i];
-      };
+    for (tools::Args args(argc, argv); args.next();) {
+      const std::string& a = args.flag();
+      auto next = [&] { return args.value(); };
       if (a == "--types") types_arg = next();
       else if (a == "--out") out = next();
       else if (a == "--repeats") repeats = std::stoi(next());

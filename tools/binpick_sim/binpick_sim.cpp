@@ -66,25 +66,6 @@ struct Options {
   double compute_time = -1;  // fixed compute time per cycle on the simulated clock [s]; < 0: measured
 };
 
-// Grips of a run by the simulated world's verdict (sim/grasp_model.hpp): what limits a complete
-// rate. A grip that matched no true grasp missed one or more of the tolerances, counted each; the
-// nearest true grasp's errors decide which.
-struct GripLedger {
-  static constexpr int kVerdicts = 4;  // the values of sim::PickStatus
-  enum Miss { position, approach, closing, kMisses };
-  int verdicts[kVerdicts] = {};  // grips per sim::PickStatus (success: held)
-  int missed[kMisses] = {};
-  int nothing_recognized = 0;  // cycles without a grasp to try (the next one searches)
-  int of(sim::PickStatus s) const { return verdicts[int(s)]; }
-  int held() const { return of(sim::PickStatus::success); }
-  int tried() const { return std::accumulate(std::begin(verdicts), std::end(verdicts), 0); }
-  void merge(const GripLedger& o) {
-    for (int k = 0; k < kVerdicts; ++k) verdicts[k] += o.verdicts[k];
-    for (int k = 0; k < kMisses; ++k) missed[k] += o.missed[k];
-    nothing_recognized += o.nothing_recognized;
-  }
-};
-
 struct RunResult {
   cycle::Strategy strategy;
   sim::PartType type;
@@ -92,7 +73,7 @@ struct RunResult {
   std::vector<std::string> csv_rows;
   simcell::FaultLedger faults;
   int wrong_pose_cycles = 0;
-  GripLedger grips;
+  simcell::GripLedger grips;
   std::vector<double> sensing_in_takt, processing_ms, fusion_ms, estimation_ms, planning_ms, phase_ms, cycle_s;
 };
 
@@ -235,17 +216,7 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
     }
     rr.cycle_s.push_back(r.takt.cycle_time);
     if (r.status == cycle::CycleStatus::nothing_recognized) ++rr.grips.nothing_recognized;
-    if (picked || r.status == cycle::CycleStatus::grasp_failed) {
-      const sim::PickStatus verdict = picked ? sim::PickStatus::success : cell.gripper->last_status();
-      ++rr.grips.verdicts[int(verdict)];
-      if (verdict == sim::PickStatus::no_matching_grasp) {
-        const auto& oc = cell.gripper->last_outcome();
-        const auto& tol = cell.gripper->settings();
-        rr.grips.missed[GripLedger::position] += !(oc.nearest_position_error <= tol.position_tolerance);
-        rr.grips.missed[GripLedger::approach] += !(oc.nearest_angle_error <= tol.angle_tolerance);
-        rr.grips.missed[GripLedger::closing] += !(oc.nearest_closing_error <= tol.angle_tolerance);
-      }
-    }
+    if (picked || r.status == cycle::CycleStatus::grasp_failed) rr.grips.record(cell.gripper->last_outcome(), cell.gripper->settings());
     // Why a cycle did not pick: the simulated world's judgement of a failed grip, else the status.
     const char* cause = r.status == cycle::CycleStatus::grasp_failed ? sim::to_string(cell.gripper->last_status())
                         : picked                                      ? "-"
@@ -296,12 +267,9 @@ int main(int argc, char** argv) {
   bool full = false;
   std::string types = "all", strategies;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto next = [&]() -> std::string {
-        if (i + 1 >= argc) throw std::invalid_argument("missing value after " + a);
-        return argv[++i];
-      };
+    for (tools::Args args(argc, argv); args.next();) {
+      const std::string& a = args.flag();
+      auto next = [&] { return args.value(); };
       if (a == "--types") types = next();
       else if (a == "--runs") o.runs = std::stoi(next());
       else if (a == "--parts") o.parts = std::stoi(next());
@@ -421,12 +389,12 @@ int main(int argc, char** argv) {
     struct Row {
       double avg, lo, hi, se;
       Params p;
-      GripLedger grips;
+      simcell::GripLedger grips;
     };
     std::vector<Row> rows;
     for (auto t : o.types) {
       std::vector<double> rates;
-      GripLedger grips;
+      simcell::GripLedger grips;
       for (const auto& r : results) {
         if (r.strategy != s || r.type != t) continue;
         rates.push_back(r.initial > 0 ? double(r.picked) / double(r.initial) : 1.0);
@@ -477,8 +445,8 @@ int main(int argc, char** argv) {
       });
       line("Missed pos./appr./closing", [](const Row& r) {
         char b[64];
-        std::snprintf(b, sizeof b, "%d / %d / %d", r.grips.missed[GripLedger::position], r.grips.missed[GripLedger::approach],
-                      r.grips.missed[GripLedger::closing]);
+        std::snprintf(b, sizeof b, "%d / %d / %d", r.grips.missed[simcell::GripLedger::position], r.grips.missed[simcell::GripLedger::approach],
+                      r.grips.missed[simcell::GripLedger::closing]);
         return std::string(b);
       });
       line("Hit parts / bin", [](const Row& r) {
@@ -511,9 +479,9 @@ int main(int argc, char** argv) {
          << ", \"views\": " << r.p.n << ", \"interval_ms\": " << json_number(r.p.t_ms) << ", \"speed_percent\": "
          << json_number(r.p.v_percent) << ", \"grips_tried\": " << r.grips.tried() << ", \"grips_held\": " << r.grips.held()
          << ", \"grip_failures\": {\"no_matching_grasp\": " << r.grips.of(sim::PickStatus::no_matching_grasp)
-         << ", \"missed_position\": " << r.grips.missed[GripLedger::position]
-         << ", \"missed_approach\": " << r.grips.missed[GripLedger::approach]
-         << ", \"missed_closing\": " << r.grips.missed[GripLedger::closing]
+         << ", \"missed_position\": " << r.grips.missed[simcell::GripLedger::position]
+         << ", \"missed_approach\": " << r.grips.missed[simcell::GripLedger::approach]
+         << ", \"missed_closing\": " << r.grips.missed[simcell::GripLedger::closing]
          << ", \"part_collision\": " << r.grips.of(sim::PickStatus::part_collision)
          << ", \"bin_collision\": " << r.grips.of(sim::PickStatus::bin_collision) << "}, \"nothing_recognized_cycles\": "
          << r.grips.nothing_recognized << "}";

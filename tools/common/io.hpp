@@ -3,6 +3,7 @@
 // Every reader throws std::runtime_error with a message naming the file and the problem; none crash
 // on malformed input (they are fuzzed).
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,29 @@ Intrinsics parse_intrinsics(const std::string& text);
 Eigen::Vector3d parse_vec3(const std::string& text, const std::string& name);
 /// A finite number. Throws std::runtime_error naming `name`.
 double parse_number(const std::string& text, const std::string& name);
+
+/// Command-line options in order: `for (Args args(argc, argv); args.next();)`, then flag() is the
+/// option and value() takes the word after it (std::invalid_argument when there is none).
+class Args {
+ public:
+  Args(int argc, char** argv) : argc_(argc), argv_(argv) {}
+  bool next() {
+    if (++i_ >= argc_) return false;
+    flag_ = argv_[i_];
+    return true;
+  }
+  const std::string& flag() const { return flag_; }
+  std::string value() {
+    if (i_ + 1 >= argc_) throw std::invalid_argument("missing value after " + flag_);
+    return argv_[++i_];
+  }
+
+ private:
+  int argc_;
+  char** argv_;
+  int i_ = 0;
+  std::string flag_;
+};
 
 /// Minimal JSON value formatting for one-line outputs.
 std::string json_number(double v);

@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iterator>
 #include <memory>
+#include <numeric>
 
 #include "binpick/cycle/pipeline.hpp"
 #include "binpick/sim.hpp"
@@ -18,6 +20,34 @@
 #include "faulty_drivers.hpp"
 
 namespace binpick::simcell {
+
+/// Grips by the simulated world's verdict (sim/grasp_model.hpp): what limits a complete rate. A grip
+/// that matched no true grasp missed one or more of the tolerances, counted each; the nearest true
+/// grasp's errors decide which.
+struct GripLedger {
+  static constexpr int kVerdicts = 4;  // the values of sim::PickStatus
+  enum Miss { position, approach, closing, kMisses };
+  int verdicts[kVerdicts] = {};  // grips per sim::PickStatus (success: held)
+  int missed[kMisses] = {};
+  int nothing_recognized = 0;  // cycles without a grasp to try (the next one searches)
+  int of(sim::PickStatus s) const { return verdicts[int(s)]; }
+  int held() const { return of(sim::PickStatus::success); }
+  int tried() const { return std::accumulate(std::begin(verdicts), std::end(verdicts), 0); }
+  /// One judged grip, against the judge's tolerances.
+  template <typename Scalar>
+  void record(const sim::PickOutcome<Scalar>& oc, const sim::GraspModelSettings<Scalar>& tol) {
+    ++verdicts[int(oc.status)];
+    if (oc.status != sim::PickStatus::no_matching_grasp) return;
+    missed[position] += !(oc.nearest_position_error <= tol.position_tolerance);
+    missed[approach] += !(oc.nearest_angle_error <= tol.angle_tolerance);
+    missed[closing] += !(oc.nearest_closing_error <= tol.angle_tolerance);
+  }
+  void merge(const GripLedger& o) {
+    for (int k = 0; k < kVerdicts; ++k) verdicts[k] += o.verdicts[k];
+    for (int k = 0; k < kMisses; ++k) missed[k] += o.missed[k];
+    nothing_recognized += o.nothing_recognized;
+  }
+};
 
 /// The simulated gripper: a grip is judged by the simulated world (sim/grasp_model.hpp: a true grasp
 /// of a part within tolerance, and no collision of the gripper with the bin or other parts); a held
