@@ -25,7 +25,7 @@
 #include "binpick/sim.hpp"
 #include "binpick/sim/reference_estimator.hpp"
 #include "binpick/sim/detail/random.hpp"
-#include "sim_instances.hpp"  // the simulated cell's templates, compiled once
+#include "sim_cell.hpp"  // the simulated cell (its templates compiled once) and the option helpers
 #include "io.hpp"
 
 using namespace binpick;
@@ -94,13 +94,7 @@ int main(int argc, char** argv) {
       } else if (a == "--help" || a == "-h") return usage(argv[0]);
       else throw std::invalid_argument("unknown option " + a);
     }
-    if (types_arg == "all")
-      for (int k = 0; k < sim::kNumPartTypes; ++k) types.push_back(sim::PartType(k));
-    else {
-      std::stringstream ss(types_arg);
-      std::string item;
-      while (std::getline(ss, item, ',')) types.push_back(sim::part_type_from_name(item));
-    }
+    types = simcell::part_types(types_arg);
     if (repeats < 1 || max_views < 1 || max_views > 10 || speeds.empty() || intervals.empty()) throw std::invalid_argument("bad grid");
     for (double t : intervals)
       if (t < 10 || std::fmod(t, 10) != 0) throw std::invalid_argument("intervals must be multiples of 10 ms");

@@ -12,7 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <sstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,23 +60,30 @@ TypeResult evaluate(sim::PartType type, const Options& o) {
   ss.width = o.width;
   ss.height = o.height;
   ss.num_threads = 0;
+  const Camera camera = sim::StereoSensor<S>(ss).camera();  // the same for every pile (seed: noise only)
   TypeResult out;
   const sim::GraspModelSettings<S> judge;  // SimGripper's tolerances
+  FusionSettings<S> fs = cycle::PipelineSettings<S>::default_fusion();  // as the cell fuses
+  fs.sensor_accuracy = ss.accuracy;
+  fs.num_threads = 0;
+  Fuser<S, Camera> fuser(camera);
+  // View 1 over the bin centre; the others on a circle of distance/6 (a sensing arc's spread), a
+  // little lower, turned further for each pile.
+  const S height = S(o.distance);
+  const Vector3<S> centre = Vector3<S>::Zero();
+  const Isometry3<S> T_base_reference = look_at(Vector3<S>(0, 0, height), centre);
+  std::optional<sim::ReferenceEstimator<S, Camera>> est;  // made with the first pile's part model
+  sim::ReferenceEstimatorSettings<S> es;
   for (int pile = 0; pile < o.piles; ++pile) {
     const std::uint64_t seed = o.seed * 1000003ULL + std::uint64_t(int(type)) * 7919ULL + std::uint64_t(pile);
     ss.seed = seed;
     const sim::StereoSensor<S> sensor(ss);
-    const Camera& camera = sensor.camera();
     sim::SceneSettings<S> sc;
     sc.part_type = type;
     sc.num_parts = o.parts;
     const sim::Scene<S> scene = sim::Scene<S>::generate(sc, seed);
     const auto geo = sim::SceneGeometry<S>::build(scene, ss.errors.bin_material, ss.errors.table_material);
-    // View 1 over the bin centre; the others on a circle of distance/6 (a sensing arc's spread), a
-    // little lower, each pile turned further.
-    const Vector3<S> centre = Vector3<S>::Zero();
-    const S height = S(o.distance);
-    std::vector<Isometry3<S>> poses{look_at(Vector3<S>(0, 0, height), centre)};
+    std::vector<Isometry3<S>> poses{T_base_reference};
     for (int k = 1; k < o.views; ++k) {
       const S a = S(2 * M_PI) * S(k - 1) / S(o.views - 1) + S(0.3) * S(pile);
       const S r = height / 6;
@@ -86,39 +93,36 @@ TypeResult evaluate(sim::PartType type, const Options& o) {
     for (std::size_t k = 0; k < poses.size(); ++k) frames.push_back(sensor.render(geo, poses[k], k));
     std::vector<DepthImageView<S>> views;
     for (const auto& f : frames) views.push_back(f.depth.view());
-    FusionSettings<S> fs = cycle::PipelineSettings<S>::default_fusion();  // as the cell fuses
-    fs.sensor_accuracy = ss.accuracy;
-    fs.num_threads = 0;
-    Fuser<S, Camera> fuser(camera);
     const auto fused = fuser.fuse(views, poses, fs);
 
-    // The estimator as the cell sets it up, its region of interest the bin's inside shrunk by 1 cm
-    // (the cell crops the fused depth to it instead).
-    sim::ReferenceEstimatorSettings<S> es;
-    es.num_threads = 0;
-    es.gripper.approach_opening = sim::widest_opening(scene.model(type));
-    const Isometry3<S> T_camera_base = poses[0].inverse(Eigen::Isometry);
-    const S hx = scene.bin().length / 2 - S(0.01), hy = scene.bin().width / 2 - S(0.01);
-    const auto a = camera.project(T_camera_base * Vector3<S>(-hx, hy, 0));
-    const auto b = camera.project(T_camera_base * Vector3<S>(hx, -hy, 0));
-    if (a && b) {
-      es.roi_u0 = std::max(0, int(std::min(a->x(), b->x())));
-      es.roi_u1 = int(std::max(a->x(), b->x()));
-      es.roi_v0 = std::max(0, int(std::min(a->y(), b->y())));
-      es.roi_v1 = int(std::max(a->y(), b->y()));
+    if (!est) {
+      // The estimator as the cell sets it up, its region of interest the bin's inside shrunk by 1 cm
+      // (the cell crops the fused depth to it instead).
+      es.num_threads = 0;
+      es.gripper.approach_opening = sim::widest_opening(scene.model(type));
+      const Isometry3<S> T_camera_base = T_base_reference.inverse(Eigen::Isometry);
+      const S hx = scene.bin().length / 2 - S(0.01), hy = scene.bin().width / 2 - S(0.01);
+      const auto a = camera.project(T_camera_base * Vector3<S>(-hx, hy, 0));
+      const auto b = camera.project(T_camera_base * Vector3<S>(hx, -hy, 0));
+      if (a && b) {
+        es.roi_u0 = std::max(0, int(std::min(a->x(), b->x())));
+        es.roi_u1 = int(std::max(a->x(), b->x()));
+        es.roi_v0 = std::max(0, int(std::min(a->y(), b->y())));
+        es.roi_v1 = int(std::max(a->y(), b->y()));
+      }
+      est.emplace(scene.model(type), es);
     }
-    const sim::ReferenceEstimator<S, Camera> est(scene.model(type), es);
     cycle::EstimatorInput<S, Camera> in;
     in.depth = fused.depth.view();
     in.camera = &camera;
-    in.up_camera = poses[0].linear().transpose() * Vector3<S>::UnitZ();
-    const auto r = est.estimate_detailed(in);
+    in.up_camera = T_base_reference.linear().transpose() * Vector3<S>::UnitZ();
+    const auto r = est->estimate_detailed(in);
     ++out.piles;
     out.recognized += int(r.result.objects.size());
     bool first = true;  // objects come most confident first
     for (const auto& obj : r.result.objects) {
       if (!obj.grasp_clear) continue;
-      const auto judged = sim::evaluate_pick(scene, type, Isometry3<S>(poses[0] * obj.T_camera_grasp), obj.gripper,
+      const auto judged = sim::evaluate_pick(scene, type, Isometry3<S>(T_base_reference * obj.T_camera_grasp), obj.gripper,
                                              es.gripper.approach_opening, judge);
       out.grips.record(judged, judge);
       if (first) {
@@ -165,14 +169,7 @@ int main(int argc, char** argv) {
     if (o.piles < 1 || o.parts < 1 || o.views < 1) throw std::invalid_argument("--piles, --parts and --views must be >= 1");
     if (!(std::isfinite(o.distance) && o.distance >= 0.16 && o.distance <= 0.9))
       throw std::invalid_argument("--distance must be in [0.16, 0.9] m (the sensor's range, parts below it)");
-    std::stringstream ss(types);
-    std::string t;
-    if (types == "all")
-      for (int k = 0; k < sim::kNumPartTypes; ++k) o.types.push_back(sim::PartType(k));
-    else
-      while (std::getline(ss, t, ','))
-        if (!t.empty()) o.types.push_back(sim::part_type_from_name(t));
-    if (o.types.empty()) throw std::invalid_argument("--types names no part type");
+    o.types = simcell::part_types(types);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "binpick_grasp_eval: %s\n", e.what());
     return usage(argv[0]);

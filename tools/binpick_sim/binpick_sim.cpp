@@ -17,7 +17,6 @@
 #include <fstream>
 #include <map>
 #include <mutex>
-#include <numeric>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -301,10 +300,7 @@ int main(int argc, char** argv) {
     if (full) o.runs = 20, o.parts = 20;
     if (o.runs < 1 || o.parts < 1 || o.jobs < 1 || o.max_failures < 1) throw std::invalid_argument("counts must be >= 1");
     if (!(o.fault_rate >= 0 && o.fault_rate <= 1)) throw std::invalid_argument("--fault-rate must be in [0, 1]");
-    if (types == "all")
-      for (int k = 0; k < sim::kNumPartTypes; ++k) o.types.push_back(sim::PartType(k));
-    else
-      for (const auto& t : split(types)) o.types.push_back(sim::part_type_from_name(t));
+    o.types = simcell::part_types(types);
     if (!strategies.empty()) {
       o.strategies.clear();
       for (const auto& s : split(strategies)) o.strategies.push_back(strategy_from(s));

@@ -11,6 +11,10 @@
 #include <iterator>
 #include <memory>
 #include <numeric>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "binpick/cycle/pipeline.hpp"
 #include "binpick/sim.hpp"
@@ -20,6 +24,22 @@
 #include "faulty_drivers.hpp"
 
 namespace binpick::simcell {
+
+/// Part types from an option value: "all", or names separated by commas (sim::part_type_from_name).
+/// Throws std::invalid_argument for an unknown name or a list naming none.
+inline std::vector<sim::PartType> part_types(const std::string& list) {
+  std::vector<sim::PartType> out;
+  if (list == "all") {
+    for (int k = 0; k < sim::kNumPartTypes; ++k) out.push_back(sim::PartType(k));
+    return out;
+  }
+  std::stringstream ss(list);
+  std::string name;
+  while (std::getline(ss, name, ','))
+    if (!name.empty()) out.push_back(sim::part_type_from_name(name));
+  if (out.empty()) throw std::invalid_argument("the part type list '" + list + "' names no part type");
+  return out;
+}
 
 /// Grips by the simulated world's verdict (sim/grasp_model.hpp): what limits a complete rate. A grip
 /// that matched no true grasp missed one or more of the tolerances, counted each; the nearest true
@@ -61,7 +81,6 @@ class SimGripper {
 
   bool grip(const Isometry3<Scalar>& T_base_flange, cycle::GripperKind kind) {
     const auto outcome = sim::evaluate_pick(*scene_, type_, T_base_flange, kind, opening_, s_);
-    ++outcomes_[int(outcome.status)];
     last_ = outcome.status;
     last_outcome_ = outcome;
     if (!outcome.success()) return false;
@@ -69,8 +88,6 @@ class SimGripper {
     return true;
   }
   void release() {}
-  /// Picks judged so far per sim::PickStatus.
-  const int* outcomes() const { return outcomes_; }
   /// The judgement of the last grip (the cause column of a failed grasp).
   sim::PickStatus last_status() const { return last_; }
   /// The judge's tolerances.
@@ -83,7 +100,6 @@ class SimGripper {
   sim::PartType type_;
   sim::GraspModelSettings<Scalar> s_;
   Scalar opening_ = 0;
-  int outcomes_[4] = {0, 0, 0, 0};
   sim::PickStatus last_ = sim::PickStatus::success;
   sim::PickOutcome<Scalar> last_outcome_;
 };
