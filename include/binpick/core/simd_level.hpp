@@ -3,7 +3,9 @@
 /// The instruction set of binpick's vectorized kernels (reprojection and voting, fusion/). A build
 /// for the baseline x86-64 ISA (SSE2, the compiler default) still runs them with AVX2 when the CPU
 /// has it: the kernels are compiled for both and chosen at run time, once per call. AVX2 here means
-/// 8-lane float packs without FMA, so both levels round alike; the vote's shortcut for pixels whose
+/// 8-lane float packs without FMA, so both levels round alike (except ICP's point-to-plane sums,
+/// which at this level also use FMA and AVX-512VL where the CPU has them: detail::simd_call_fused,
+/// compared by the tests with tolerances); the vote's shortcut for pixels whose
 /// views all agree is taken per pack, so fused depths may differ in the last bit between levels
 /// (votes never). A build with AVX2 on (e.g. -march=x86-64-v3) uses it everywhere and has nothing to
 /// choose; so do non-x86 targets (NEON packs). Defining BINPICK_NO_SIMD_DISPATCH (CMake:

@@ -23,9 +23,11 @@
 /// directions keep their initial value; the result then says `degenerate`.
 /// Point-to-plane sums are formed in the caller's scalar over blocks of 256 points (gathered into
 /// structure-of-arrays rows, by pack loads where consecutive, moved, paired and summed lane-wise in
-/// SIMD packs, every rejection a lane mask; AVX2 chosen at run time, core/simd_level.hpp) and added in double
+/// SIMD packs, every rejection a lane mask; AVX2 chosen at run time, with FMA and AVX-512VL where the
+/// CPU has them, core/simd_level.hpp) and added in double
 /// (point-to-point sums in double), one accumulator per thread over fixed ranges of blocks, merged in
-/// order: deterministic for a fixed thread count. Numerical failure is a status, never an exception.
+/// order: deterministic for a fixed thread count on a given CPU. Numerical failure is a status, never
+/// an exception.
 
 #include <algorithm>
 #include <cmath>
@@ -131,7 +133,6 @@ struct IcpResult {
 template <typename Scalar>
 struct IcpWorkspace {
   std::vector<std::uint32_t> kept;      ///< indices of the usable source points
-  std::vector<int> block_used;          ///< usable points per block while they are listed
   std::vector<Vector3<Scalar>> moved;   ///< batch path: the moved source points
   std::vector<std::ptrdiff_t> partners; ///< batch path: their partners
   PointCloud<Scalar> coarse;            ///< the coarse stage's points (IcpSettings::coarse_points)
@@ -312,34 +313,44 @@ BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b
   return out;
 }
 
-/// rows[d][i + l] = base[element[l] + d] (d = 0, 1, 2) for the lanes of `ok`, else 0: a pack of
-/// 3-vectors gathered from an array of them (element = 3 × index, already 0 in the lanes not in `ok`;
-/// those lanes read nothing). When the lanes are L consecutive 3-vectors (the source walked in order;
-/// many projective partners, as neighbouring pixels pair with neighbouring pixels) they are read with
-/// pack loads and transposed (Pack::load3); else a lane at a time, not with
-/// AVX2 gathers: the partners of a block lie in a few rows of the target, and per lane the three
-/// values share a cache line. Measured on 640 x 480 (projective, 307 k points, AMD Zen 5): one ICP
-/// iteration 3.9 ms with three gathers per row, 3.0 ms a lane at a time; the whole registration
-/// 4.0-4.6 -> 3.6-4.2 ms (medians of 5 alternating runs) with consecutive packs loaded whole (73 % of
-/// the partner packs there). Also loading the halves of a 32-byte pack, a 16-byte load a lane and a
-/// transpose for the other packs, or skipping packs without partners, measured no better.
+/// rows_a[d][i + l] = a[3 index[l] + d] (d = 0, 1, 2) for the lanes of `ok`, else 0, and the same
+/// from `b` into rows_b when b is not null (points and their normals share the indices): a pack of
+/// 3-vectors gathered from arrays of them (lanes not in `ok` read nothing). When the lanes are L
+/// consecutive 3-vectors (the source walked in order; most projective partners, as neighbouring
+/// pixels pair with neighbouring pixels) they are read with pack loads and transposed (Pack::load3);
+/// else a lane at a time. Measured on 640 x 480 (projective, 307 k points, AMD Zen 5): one ICP
+/// iteration 3.9 ms with three AVX2 gathers per row, 3.0 ms a lane at a time (the partners of a
+/// block lie in a few rows of the target, and per lane the three values share a cache line);
+/// consecutive packs loaded whole (73 % of the partner packs there) took the registration from
+/// 4.0-4.6 to 3.6-4.2 ms. Not better either: hardware gathers for the other packs (+2 %), and two
+/// pack loads and lane permutations for lanes within two windows of L (+4 %).
 template <typename Scalar, int Bytes>
-BINPICK_SIMD_INLINE void gather_xyz(const Scalar* base, const typename detail::Pack<Scalar, Bytes>::mask& element,
+BINPICK_SIMD_INLINE void gather_xyz(const Scalar* a, const Scalar* b,
+                                    const typename detail::Pack<Scalar, Bytes>::mask& index,
                                     const typename detail::Pack<Scalar, Bytes>::mask& ok,
-                                    Scalar (&rows)[3][PairBlock<Scalar>::kSize], int i) {
+                                    Scalar (&rows_a)[3][PairBlock<Scalar>::kSize],
+                                    Scalar (&rows_b)[3][PairBlock<Scalar>::kSize], int i) {
   using P = detail::Pack<Scalar, Bytes>;
   using Mask = typename P::mask;
+  using Index = typename std::remove_reference<decltype(Mask()[0])>::type;
   constexpr int L = P::size;
-  Mask three_lane;  // a constant: folded at compile time
-  for (int l = 0; l < L; ++l) three_lane[l] = 3 * l;
-  const Mask start = element - three_lane;  // element[0] in every lane of a consecutive pack
+  Mask lane;  // a constant: folded at compile time
+  for (int l = 0; l < L; ++l) lane[l] = Index(l);
+  const Mask start = index - lane;  // index[0] in every lane of a consecutive pack
   const Mask bad = (start != start[0]) | ~ok;
   bool consecutive = true;
   for (int l = 0; l < L; ++l) consecutive &= bad[l] == 0;
-  if (consecutive) return P::load3(base + element[0], rows[0] + i, rows[1] + i, rows[2] + i);
+  if (consecutive) {
+    const std::ptrdiff_t e = 3 * std::ptrdiff_t(index[0]);
+    P::load3(a + e, rows_a[0] + i, rows_a[1] + i, rows_a[2] + i);
+    if (b) P::load3(b + e, rows_b[0] + i, rows_b[1] + i, rows_b[2] + i);
+    return;
+  }
   for (int l = 0; l < L; ++l) {
-    const Scalar* q = base + element[l];
-    for (int d = 0; d < 3; ++d) rows[d][i + l] = ok[l] ? q[d] : Scalar(0);
+    const std::ptrdiff_t e = ok[l] ? 3 * std::ptrdiff_t(index[l]) : 0;
+    for (int d = 0; d < 3; ++d) rows_a[d][i + l] = ok[l] ? a[e + d] : Scalar(0);
+    if (b)
+      for (int d = 0; d < 3; ++d) rows_b[d][i + l] = ok[l] ? b[e + d] : Scalar(0);
   }
 }
 
@@ -479,10 +490,11 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   const std::size_t stride = std::size_t(settings.stride), total = source_points.size();
   const std::size_t strided = (total + stride - 1) / stride;
   // Point-to-plane over a point-wise association (correspondence.hpp) moves, associates and sums
-  // each block of the strided source in one pass, straight from the caller's arrays: no per-iteration
-  // arrays of source size but the list of usable points, which its first iteration makes (that test
-  // is a lane mask of the pass: no separate scan of the source). Otherwise the usable points are
-  // listed first and moved and associated in batches.
+  // each block of the strided source in one pass, straight from the caller's arrays: no arrays of
+  // source size at all, and whether a point is usable is a lane mask of the pass. (Listing the usable
+  // points in the first iteration for the later ones cost more than walking the few unusable ones
+  // again: the list is a scalar loop, and its gaps break the pack loads of consecutive points.)
+  // Otherwise the usable points are listed first and moved and associated in batches.
   constexpr bool pointwise = has_point_partner<Association>::value;
   const bool fused = plane && pointwise;
   // A point is used when finite and, with source normals, when it has one (a point without a normal,
@@ -505,7 +517,6 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   // sums every usable point of the batch path; the fused path sums those among every k-th strided
   // point, k = ceil(strided / kCentroidPoints) (the step is the same to first order for any centre
   // near the points), in Scalar over blocks and in double across them.
-  // Sizes only grow (a resize writes its new elements): the fused path tracks its list's length in n.
   std::vector<std::uint32_t>& kept = workspace.kept;
   if (!fused && kept.size() < strided) kept.resize(strided);
   std::size_t used = 0;
@@ -524,12 +535,8 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   if (!fused) kept.resize(used);
   if (!fused && used < min_corr) return result;
   if (used > 0) centroid_src /= double(used);
-  // Source point s of the pass (of the strided source, or of the list).
-  // The fused pass's first iteration walks the strided source and lists its usable points (per block,
-  // then packed in block order: deterministic), later iterations walk the list. Until listed, source
-  // point s of the pass is the s-th strided one.
-  bool listed = !fused;
-  std::vector<int>& block_used = workspace.block_used;
+  // Source point s of the pass: the s-th strided one (fused), or the s-th of the list.
+  const bool listed = !fused;
   const auto src_index = [&](std::ptrdiff_t s) { return listed ? std::size_t(kept[std::size_t(s)]) : std::size_t(s) * stride; };
   const auto src = [&](std::ptrdiff_t s) -> const Vector3<Scalar>& { return source_points[src_index(s)]; };
   const auto src_normal = [&](std::ptrdiff_t s) -> const Scalar* {
@@ -551,7 +558,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   std::vector<Vector3<Scalar>>& moved = workspace.moved;
   if (!fused) moved.resize(kept.size());
   std::vector<std::ptrdiff_t>& partners = workspace.partners;
-  std::ptrdiff_t n = std::ptrdiff_t(fused ? strided : kept.size());  // points of the pass
+  const std::ptrdiff_t n = std::ptrdiff_t(fused ? strided : kept.size());  // points of the pass
   bool converged = false;
 
   for (int it = 1; it <= settings.max_iterations; ++it) {
@@ -622,7 +629,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
             }
         }
         rd::PlaneBlockSums<Scalar> sums;
-        detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+        detail::simd_call_fused([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
           constexpr int Bytes = decltype(bytes)::value;
           using P = detail::Pack<Scalar, Bytes>;
           using Mask = typename P::mask;
@@ -644,9 +651,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
               } else {
                 for (int l = 0; l < L; ++l) index[l] = i + l < count ? Index(kept[std::size_t(first + i + l)]) : Index(0);
               }
-              const Mask element = ok & (index * Index(3));
-              rd::gather_xyz<Scalar, Bytes>(src_p, element, ok, blk.p, i);
-              if (check_normals) rd::gather_xyz<Scalar, Bytes>(src_n, element, ok, blk.ns, i);
+              rd::gather_xyz<Scalar, Bytes>(src_p, check_normals ? src_n : nullptr, index, ok, blk.p, blk.ns, i);
             }
           } else {
             for (int s = count; s < padded; ++s)  // padding: no partner
@@ -654,14 +659,6 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
           }
           rd::move_rows<Scalar, Bytes>(blk, padded, prm);
           for (int s = count; s < padded; ++s) blk.use[s] = Scalar(0);
-          if (!listed) {  // list this block's usable points in its own range of `kept`
-            int m = 0;
-            for (int s = 0; s < count; ++s) {
-              kept[std::size_t(first + m)] = std::uint32_t(std::size_t(first + s) * stride);
-              m += blk.use[s] > Scalar(0);
-            }
-            block_used[std::size_t(b)] = m;
-          }
           if constexpr (has_pixel_partner<Association>::value) {
             if (pixels) association.template project_queries<Bytes>(blk.p[0], blk.p[1], blk.p[2], padded, blk.partner);
           }
@@ -683,9 +680,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
               std::memcpy(&j, blk.partner + i, sizeof j);
               const Mask index = __builtin_convertvector(j, Mask);  // < 2^31 / 3 (gathers)
               const Mask ok = index >= Index(0);
-              const Mask element = ok & (index * Index(3));
-              rd::gather_xyz<Scalar, Bytes>(tgt_p, element, ok, blk.y, i);
-              rd::gather_xyz<Scalar, Bytes>(tgt_n, element, ok, blk.nt, i);
+              rd::gather_xyz<Scalar, Bytes>(tgt_p, tgt_n, index, ok, blk.y, blk.nt, i);
             }
           } else {
             for (int s = 0; s < padded; ++s) {
@@ -707,23 +702,9 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
         acc.add(sums);
       };
       const std::ptrdiff_t blocks = (n + rd::kPlaneBlock - 1) / rd::kPlaneBlock;
-      if (!listed) {
-        if (kept.size() < std::size_t(n)) kept.resize(std::size_t(n));
-        block_used.assign(std::size_t(blocks), 0);
-      }
       const rd::PlaneAccumulator acc = rd::parallel_reduce(
           blocks, threads, rd::PlaneAccumulator{}, block_sums,
           [](rd::PlaneAccumulator& total, const rd::PlaneAccumulator& a) { total.merge(a); }, 1);
-      if (!listed) {  // pack the blocks' lists
-        std::size_t packed = 0;
-        for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-          const std::size_t m = std::size_t(block_used[std::size_t(b)]);
-          if (m > 0) std::memmove(kept.data() + packed, kept.data() + b * rd::kPlaneBlock, m * sizeof(std::uint32_t));
-          packed += m;
-        }
-        n = std::ptrdiff_t(packed);
-        listed = true;
-      }
       result.inliers = acc.count;
       result.rmse = acc.count ? Scalar(std::sqrt(acc.sum_sq / double(acc.count))) : Scalar(0);
       if (acc.count < min_corr) {
