@@ -9,6 +9,7 @@
 /// Normals are unit vectors oriented toward the viewpoint (the camera), or zero where none can be
 /// estimated; never NaN.
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -163,22 +164,22 @@ struct RowXyz {
 
 BINPICK_SIMD_BEGIN
 
-/// organized_normal_interior for `Pack<Scalar, Bytes>::size` neighbouring pixels from column `u` on
-/// (every one at least k pixels inside the image): the same operations in the same order lane by
-/// lane, so the same bits (the crease sign test is chosen once per call, not per lane). `c` is the
-/// pixel's row, `t` / `d` the rows k above and below; `k` the column offset of the left and right
-/// neighbours. Writes the normals to out[0..size).
+/// organized_normal_interior for `Pack<Scalar, Bytes>::size` pixels, entries u.. of `c`: the same
+/// operations in the same order lane by lane, so the same bits (the crease sign test is chosen once
+/// per call, not per lane). `l` / `r` / `t` / `d` hold, at the same entries, the pixels' neighbours
+/// k pixels to the left, right, above and below (for neighbouring pixels of one image row: that row
+/// shifted by -k and +k, and the rows k above and below). Writes the normals to out[0..size).
 template <typename Scalar, int Bytes>
-BINPICK_SIMD_INLINE void organized_normals_pack(const RowXyz<Scalar>& c, const RowXyz<Scalar>& t, const RowXyz<Scalar>& d,
-                                                int u, int k, Scalar jump_ratio, Scalar cos_crease,
-                                                Vector3<Scalar>* out) {
+BINPICK_SIMD_INLINE void organized_normals_pack(const RowXyz<Scalar>& c, const RowXyz<Scalar>& l, const RowXyz<Scalar>& r,
+                                                const RowXyz<Scalar>& t, const RowXyz<Scalar>& d, int u,
+                                                Scalar jump_ratio, Scalar cos_crease, Vector3<Scalar>* out) {
   using P = detail::Pack<Scalar, Bytes>;
   using V = typename P::type;
   using M = typename P::mask;
   const V zero = P::splat(Scalar(0)), inf = P::splat(std::numeric_limits<Scalar>::infinity());
   const V cx = P::load(c.x + u), cy = P::load(c.y + u), cz = P::load(c.z + u);
-  const V rx = P::load(c.x + u + k), ry = P::load(c.y + u + k), rz = P::load(c.z + u + k);
-  const V lx = P::load(c.x + u - k), ly = P::load(c.y + u - k), lz = P::load(c.z + u - k);
+  const V rx = P::load(r.x + u), ry = P::load(r.y + u), rz = P::load(r.z + u);
+  const V lx = P::load(l.x + u), ly = P::load(l.y + u), lz = P::load(l.z + u);
   const V dx = P::load(d.x + u), dy = P::load(d.y + u), dz = P::load(d.z + u);
   const V tx = P::load(t.x + u), ty = P::load(t.y + u), tz = P::load(t.z + u);
   const V jump = P::splat(jump_ratio) * cz;
@@ -274,12 +275,13 @@ void organized_normals_into(const OrganizedCloud<Scalar>& cloud, const Organized
           ring.row.assign(std::size_t(slots), -1);
         }
         const RowXyz<Scalar> t = load(ring, v - k), c = load(ring, v), d = load(ring, v + k);
+        const RowXyz<Scalar> l{c.x - k, c.y - k, c.z - k}, r{c.x + k, c.y + k, c.z + k};
         scalar_row(v, 0, k);
         int u = k;
         detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
           constexpr int size = detail::Pack<Scalar, decltype(bytes)::value>::size;
           for (; u + size <= w - k; u += size)
-            organized_normals_pack<Scalar, decltype(bytes)::value>(c, t, d, u, k, jump_ratio, cc,
+            organized_normals_pack<Scalar, decltype(bytes)::value>(c, l, r, t, d, u, jump_ratio, cc,
                                                                    out + cloud.index(u, v));
         });
         scalar_row(v, u, w);
@@ -397,30 +399,66 @@ void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& c
   const Scalar cc = registration_detail::cos_crease(settings);
   const int k = settings.pixel_offset, w = depth.width(), h = depth.height();
   // Sized for every kept pixel and trimmed at the end: indexed writes instead of push_back.
-  const std::size_t kept = std::size_t((w + stride - 1) / stride) * std::size_t((h + stride - 1) / stride);
+  const int cols = (w + stride - 1) / stride;
+  const std::size_t kept = std::size_t(cols) * std::size_t((h + stride - 1) / stride);
   out.points.resize(kept);
   out.normals.resize(kept);
   std::size_t m = 0;
-  // backproject_organized's point at (u, v).
+  // backproject_organized's points.
   const registration_detail::PixelBackprojector<Scalar, Camera> backproject(camera);
-  const auto point = [&](int u, int v) { return backproject(u, v, depth.depth(u, v)); };
-  // The centre and its four neighbours laid out for organized_normal_interior: offsets ±1 (u), ±2 (v).
-  Vector3<Scalar> patch[5];
-  for (int v = 0; v < h; v += stride)
-    for (int u = 0; u < w; u += stride) {
-      patch[2] = point(u, v);
-      if (!(patch[2].z() > Scalar(0))) continue;
-      out.points[m] = patch[2];
-      if (u < k || v < k || u + k >= w || v + k >= h) {  // central differences impossible: no normal
-        out.normals[m++] = Vector3<Scalar>::Zero();
-        continue;
+  // A kept row's pixels and their four neighbours as coordinate rows (entry j: column j × stride),
+  // for organized_normals_pack, and the row's normals. Kept columns whose neighbours are inside
+  // the image: j in [j0, j1).
+  const int j0 = std::min(cols, (k + stride - 1) / stride);
+  const int j1 = w - k - 1 >= 0 ? std::max(j0, std::min(cols, (w - k - 1) / stride + 1)) : j0;
+  enum : int { kCentre, kLeft, kRight, kTop, kBottom };
+  std::vector<Scalar> rows(std::size_t(15) * std::size_t(cols));
+  std::vector<Vector3<Scalar>> row_normals(static_cast<std::size_t>(cols));
+  // Row r's pixels from entry j0 on: n pixels of image row v from column u0, every stride-th.
+  const auto fill = [&](int r, int j_first, int v, int u0, int n) {
+    Scalar* x = rows.data() + std::size_t(3 * r) * std::size_t(cols) + std::size_t(j_first);
+    backproject.row(depth, v, u0, stride, n, x, x + cols, x + 2 * cols);
+  };
+  const auto row = [&](int r) {
+    const Scalar* x = rows.data() + std::size_t(3 * r) * std::size_t(cols);
+    return registration_detail::RowXyz<Scalar>{x, x + cols, x + 2 * cols};
+  };
+  const registration_detail::RowXyz<Scalar> c = row(kCentre), lft = row(kLeft), rgt = row(kRight), top = row(kTop),
+                                            bot = row(kBottom);
+  for (int v = 0; v < h; v += stride) {
+    const bool interior_row = v >= k && v + k < h;
+    fill(kCentre, 0, v, 0, cols);
+    if (interior_row) {
+      const int u0 = j0 * stride, n = j1 - j0;
+      fill(kLeft, j0, v, u0 - k, n);
+      fill(kRight, j0, v, u0 + k, n);
+      fill(kTop, j0, v - k, u0, n);
+      fill(kBottom, j0, v + k, u0, n);
+      int j = j0;
+      detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+        constexpr int size = detail::Pack<Scalar, decltype(bytes)::value>::size;
+        for (; j + size <= j1; j += size)
+          registration_detail::organized_normals_pack<Scalar, decltype(bytes)::value>(
+              c, lft, rgt, top, bot, j, settings.max_depth_jump_ratio, cc, row_normals.data() + j);
+      });
+      for (; j < j1; ++j) {  // the last few: organized_normal_interior on a patch
+        // The centre and its four neighbours laid out for it: offsets ±1 (u), ±2 (v).
+        const Vector3<Scalar> patch[5] = {{top.x[j], top.y[j], top.z[j]},
+                                          {lft.x[j], lft.y[j], lft.z[j]},
+                                          {c.x[j], c.y[j], c.z[j]},
+                                          {rgt.x[j], rgt.y[j], rgt.z[j]},
+                                          {bot.x[j], bot.y[j], bot.z[j]}};
+        row_normals[std::size_t(j)] =
+            registration_detail::organized_normal_interior(patch + 2, 1, 2, settings.max_depth_jump_ratio, cc);
       }
-      patch[1] = point(u - k, v);
-      patch[3] = point(u + k, v);
-      patch[0] = point(u, v - k);
-      patch[4] = point(u, v + k);
-      out.normals[m++] = registration_detail::organized_normal_interior(patch + 2, 1, 2, settings.max_depth_jump_ratio, cc);
     }
+    for (int j = 0; j < cols; ++j) {
+      if (!(c.z[j] > Scalar(0))) continue;
+      out.points[m] = Vector3<Scalar>(c.x[j], c.y[j], c.z[j]);
+      // Central differences impossible at the border: no normal.
+      out.normals[m++] = interior_row && j >= j0 && j < j1 ? row_normals[std::size_t(j)] : Vector3<Scalar>::Zero();
+    }
+  }
   out.points.resize(m);
   out.normals.resize(m);
 }

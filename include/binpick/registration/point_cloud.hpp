@@ -9,6 +9,7 @@
 /// z = 0, "no measurement", as in depth images), so no NaN is ever stored.
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <limits>
@@ -66,6 +67,16 @@ class PixelBackprojector {
  public:
   explicit PixelBackprojector(const Camera& camera) : camera_(camera) {}
   Vector3<Scalar> operator()(int u, int v, Scalar z) const { return backproject_or_zero<Scalar>(camera_, u, v, z); }
+  /// Entry j of x, y, z = the point of pixel (u0 + j step, v) of `depth`, j < n (all inside the image).
+  void row(const DepthImageView<Scalar>& depth, int v, int u0, int step, int n, Scalar* x, Scalar* y, Scalar* z) const {
+    for (int j = 0; j < n; ++j) {
+      const int u = u0 + j * step;
+      const Vector3<Scalar> p = (*this)(u, v, depth.depth(u, v));
+      x[j] = p.x();
+      y[j] = p.y();
+      z[j] = p.z();
+    }
+  }
 
  private:
   const Camera& camera_;
@@ -80,6 +91,28 @@ class PixelBackprojector<Scalar, PinholeCamera<Scalar>> {
     if (!(z > Scalar(0))) return Vector3<Scalar>::Zero();
     const Vector3<Scalar> p(rays_.x[std::size_t(u)] * z, rays_.y[std::size_t(v)] * z, z);
     return p.allFinite() ? p : Vector3<Scalar>::Zero().eval();
+  }
+  /// Entry j of x, y, z = operator()(u0 + j step, v, depth at that pixel), j < n (all inside the
+  /// image): the same bits, read as the view's own type and without a branch per pixel (holes in
+  /// metal depth images make branches unpredictable).
+  void row(const DepthImageView<Scalar>& depth, int v, int u0, int step, int n, Scalar* x, Scalar* y, Scalar* z) const {
+    const Scalar ry = rays_.y[std::size_t(v)], scale = depth.metres_per_unit();
+    const Scalar big = std::numeric_limits<Scalar>::max();
+    const Scalar* rx = rays_.x.data();
+    depth.dispatch([&](auto type) {
+      using T = decltype(type);
+      const T* raw = depth.template row<T>(v);
+      for (int j = 0; j < n; ++j) {
+        const int u = u0 + j * step;
+        const Scalar d = DepthImageView<Scalar>::decode(raw[u], scale);
+        const Scalar px = rx[u] * d, py = ry * d;
+        // operator()'s tests: a measurement (decode() leaves it finite) and finite products.
+        const bool ok = (d > Scalar(0)) & (std::abs(px) <= big) & (std::abs(py) <= big);
+        x[j] = ok ? px : Scalar(0);
+        y[j] = ok ? py : Scalar(0);
+        z[j] = ok ? d : Scalar(0);
+      }
+    });
   }
   const detail::RayTable<Scalar>& rays() const { return rays_; }
 
