@@ -330,7 +330,7 @@ void bench_icp_projective(const bench::Options& opt) {
       const char* prepared = mode == "per_view" ? "source" : "source and target";
       g_time[key("projective_" + mode, "binpick", threads)] = st.median;
       bench::JsonLine j("icp_projective");
-      j.str("impl", "binpick").str("memory", memory).str("prepared_per_call", prepared).num("width", W)
+      j.str("impl", "binpick").str("icp_isa", detail::fused_isa()).str("memory", memory).str("prepared_per_call", prepared).num("width", W)
           .num("height", H).num("threads", threads)
           .num("stride", 1).num("points_part", 1.0).stats(st).str("status", to_string(r.status))
           .num("iterations", r.iterations).num("rmse_reported", r.rmse).num("inliers", double(r.inliers)).num("goal_ms", 5);

@@ -5,7 +5,8 @@
 // + source normals + ICP, from fresh memory; `"scope": "icp"` times the ICP call alone on prepared
 // clouds (what a caller that keeps its target across frames pays per registration).
 // `organized_normals` times the target's per-frame preprocessing alone (backprojection + normals), in
-// fresh memory and in a cloud kept across frames (`"memory"`).
+// fresh memory and in a cloud kept across frames (`"memory"`). `"icp_isa"`: the variant of ICP's
+// vectorized pass that ran (detail::fused_isa()).
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -97,6 +98,7 @@ int main(int argc, char** argv) {
             const Eigen::Isometry3d E = r.T_target_source.cast<double>() * T_true.inverse();
             bench::JsonLine("icp_point_to_plane")
                 .str("impl", "binpick")
+                .str("icp_isa", detail::fused_isa())
                 .str("association", assoc)
                 .str("scope", scope)
                 .num("width", sz.w)

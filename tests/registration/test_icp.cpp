@@ -2,6 +2,7 @@
 // strategies (float and double), identity, inverse, degeneracy, determinism and bad input.
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -321,6 +322,41 @@ TEST(Icp, DeterministicForAFixedThreadCount) {
   const auto r3 = align_depth_view(depth.view(), cam, target, init, s);
   EXPECT_LT((r1.T_target_source.matrix() - r3.T_target_source.matrix()).cwiseAbs().maxCoeff(), 1e-9);
 }
+
+// ICP's pass runs at the AVX2 level with FMA, and with AVX-512VL where the CPU has it
+// (detail::simd_call_fused): every variant this CPU can run lands on the baseline level's pose to
+// rounding, on both scalars.
+template <typename Scalar>
+void check_fused_variants_agree() {
+  const DepthImage<double> rendered = floor_and_box_depth();
+  DepthImage<Scalar> depth(rendered.width(), rendered.height());
+  for (int v = 0; v < depth.height(); ++v)
+    for (int u = 0; u < depth.width(); ++u) depth.at(u, v) = Scalar(rendered.at(u, v));
+  const Isometry3<Scalar> init = start_off_by_3_7_mm().template cast<Scalar>();
+  const auto cam = test_camera<Scalar>();
+  const auto target = make_projective_target(depth.view(), cam);
+  IcpResult<Scalar> base;
+  {
+    const SimdCap cap(SimdLevel::baseline);
+    base = align_depth_view(depth.view(), cam, target, init);
+  }
+  ASSERT_TRUE(base.ok()) << to_string(base.status);
+  std::vector<std::string> seen;
+  for (const bool avx512 : {true, false}) {
+    detail::fused_avx512vl_allowed() = avx512;
+    const IcpResult<Scalar> r = align_depth_view(depth.view(), cam, target, init);
+    seen.push_back(detail::fused_isa());
+    EXPECT_EQ(r.status, base.status) << seen.back();
+    const auto [et, er] = pose_error<double>(r.T_target_source.template cast<double>(), base.T_target_source.template cast<double>());
+    const double tol = std::is_same<Scalar, float>::value ? 1e-5 : 1e-9;
+    EXPECT_LT(et, tol) << seen.back();
+    EXPECT_LT(er, tol) << seen.back();
+  }
+  detail::fused_avx512vl_allowed() = true;
+  ::testing::Test::RecordProperty("variants", seen[0] + "," + seen[1]);
+}
+TEST(Icp, FusedVariantsAgreeWithTheBaselineFloat) { check_fused_variants_agree<float>(); }
+TEST(Icp, FusedVariantsAgreeWithTheBaselineDouble) { check_fused_variants_agree<double>(); }
 
 // One workspace across calls of different sizes, with and without source normals, both stages and
 // both loops (point-to-plane's fused pass, point-to-point's batch path): every result has the bits

@@ -6,6 +6,7 @@
 /// runs at the build's ISA and, through simd_call(), also with AVX2 chosen at run time
 /// (core/simd_level.hpp).
 
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <type_traits>
@@ -203,6 +204,25 @@ inline bool cpu_has_avx512vl() {
 }
 #endif
 
+/// Whether simd_call_fused may use AVX-512VL (default true). Tests set false to run the FMA variant
+/// that CPUs without AVX-512VL get.
+inline std::atomic<bool>& fused_avx512vl_allowed() {
+  static std::atomic<bool> allowed{true};
+  return allowed;
+}
+
+/// The variant simd_call_fused runs now, for reports: "baseline", "avx2", "avx2_fma" or "avx512vl"
+/// (builds that do not choose at run time: the build's level).
+inline const char* fused_isa() {
+#if BINPICK_SIMD_DISPATCH
+  if (simd_level() != SimdLevel::avx2) return "baseline";
+  if (cpu_has_avx512vl() && fused_avx512vl_allowed().load(std::memory_order_relaxed)) return "avx512vl";
+  return cpu_has_fma() ? "avx2_fma" : "avx2";
+#else
+  return to_string(simd_level());
+#endif
+}
+
 /// simd_call for kernels whose results need not round as the baseline level's do (sums that tests
 /// compare with tolerances, never bit for bit). At the AVX2 level the compiler may also fuse
 /// multiply-adds (FMA) and, on CPUs with AVX-512VL, use its encoding for the same 32-byte packs, so
@@ -213,7 +233,7 @@ template <typename F>
 void simd_call_fused(F&& f) {
 #if BINPICK_SIMD_DISPATCH
   if (simd_level() == SimdLevel::avx2) {
-    if (cpu_has_avx512vl()) return simd_call_avx512vl(f);
+    if (cpu_has_avx512vl() && fused_avx512vl_allowed().load(std::memory_order_relaxed)) return simd_call_avx512vl(f);
     return cpu_has_fma() ? simd_call_avx2_fma(f) : simd_call_avx2(f);
   }
 #endif
