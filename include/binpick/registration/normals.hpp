@@ -365,10 +365,11 @@ PointCloud<Scalar> subsample_with_normals(const OrganizedCloud<Scalar>& cloud, i
 
 /// subsample_with_normals straight from a depth image: only the kept pixels and the four neighbours
 /// each normal needs are backprojected (stride 4 touches under a third of the pixels instead of all of
-/// them). The same points and normals as backproject_organized followed by subsample_with_normals.
-/// Written into `out` (its points and normals replaced), reusing its memory: a cloud kept across
-/// frames allocates once. Throws std::invalid_argument for stride < 1, settings out of range or a
-/// size mismatch.
+/// them); from stride 3 on, a kept row's normals are computed a pack at a time from coordinate rows
+/// (a scratch of 18 scalars per kept column, allocated per call). The same points and normals as
+/// backproject_organized followed by subsample_with_normals. Written into `out` (its points and
+/// normals replaced), reusing its memory: a cloud kept across frames allocates nothing large again.
+/// Throws std::invalid_argument for stride < 1, settings out of range or a size mismatch.
 template <typename Scalar, typename Camera>
 void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& camera, int stride,
                             const OrganizedNormalSettings<Scalar>& settings, PointCloud<Scalar>& out) {
@@ -414,7 +415,7 @@ void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& c
   enum : int { kCentre, kLeft, kRight, kTop, kBottom };
   std::vector<Scalar> rows(std::size_t(15) * std::size_t(cols));
   std::vector<Vector3<Scalar>> row_normals(static_cast<std::size_t>(cols));
-  // Row r's pixels from entry j0 on: n pixels of image row v from column u0, every stride-th.
+  // Coordinate row r from entry j_first on: n pixels of image row v from column u0, every stride-th.
   const auto fill = [&](int r, int j_first, int v, int u0, int n) {
     Scalar* x = rows.data() + std::size_t(3 * r) * std::size_t(cols) + std::size_t(j_first);
     backproject.row(depth, v, u0, stride, n, x, x + cols, x + 2 * cols);
