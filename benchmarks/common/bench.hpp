@@ -22,6 +22,28 @@ struct Options {
   bool quick = false;              ///< smaller sizes / fewer trials (smoke runs)
 };
 
+/// The first line of every run: how this process gets its memory pages, which moves the figures of
+/// large clouds a lot on some hosts (page faults in fresh memory, TLB misses in kept memory). "thp" is
+/// the kernel's transparent huge page mode; "glibc_tunables" the environment's GLIBC_TUNABLES
+/// (glibc.malloc.hugetlb=1 makes malloc ask for huge pages in the "madvise" mode; README).
+inline void print_host() {
+  std::string thp = "unknown";
+  if (std::FILE* f = std::fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r")) {
+    char buf[128] = {};
+    const std::size_t n = std::fread(buf, 1, sizeof buf - 1, f);
+    std::fclose(f);
+    const std::string line(buf, n);
+    const std::size_t a = line.find('['), b = line.find(']');
+    if (a != std::string::npos && b != std::string::npos && b > a) thp = line.substr(a + 1, b - a - 1);
+  }
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  std::string t = tunables ? tunables : "";
+  for (char& ch : t)
+    if (ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20) ch = '_';  // stays valid JSON
+  std::printf("{\"name\": \"host\", \"thp\": \"%s\", \"glibc_tunables\": \"%s\"}\n", thp.c_str(), t.c_str());
+  std::fflush(stdout);
+}
+
 inline Options parse_options(int argc, char** argv) {
   Options o;
   for (int i = 1; i < argc; ++i) {
@@ -54,6 +76,7 @@ inline Options parse_options(int argc, char** argv) {
       std::exit(2);
     }
   }
+  print_host();
   return o;
 }
 

@@ -11,6 +11,9 @@
 ///   if (r.ok()) T_1_i = r.T_target_source;                                  // else keep the prior
 /// \endcode
 /// or, in one call, `align_depth_views(source, source_camera, target, target_camera, T_init, settings)`.
+/// The one call allocates about 15 MB at 640 x 480; where page faults are expensive (virtual
+/// machines) it costs several times the registration itself (README, "host" line of the benchmarks),
+/// so loops keep the target's cloud and an AlignWorkspace across frames.
 /// The source is every `settings.stride`-th row and column of the source image (stride 4 = 1/16 of the
 /// pixels); association is projective into the target image (window `ProjectiveAssociationSettings`),
 /// target normals come from the organized image (`OrganizedNormalSettings`).
