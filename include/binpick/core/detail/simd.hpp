@@ -211,16 +211,28 @@ inline std::atomic<bool>& fused_avx512vl_allowed() {
   return allowed;
 }
 
-/// The variant simd_call_fused runs now, for reports: "baseline", "avx2", "avx2_fma" or "avx512vl"
-/// (builds that do not choose at run time: the build's level).
-inline const char* fused_isa() {
+/// The variants of simd_call_fused (the build's own packs, or AVX2 with FMA / AVX-512VL's encoding).
+enum class FusedVariant { baseline, avx2, avx2_fma, avx512vl };
+
+/// The variant simd_call_fused runs now (builds that do not choose at run time: the build's level).
+inline FusedVariant fused_variant() {
 #if BINPICK_SIMD_DISPATCH
-  if (simd_level() != SimdLevel::avx2) return "baseline";
-  if (cpu_has_avx512vl() && fused_avx512vl_allowed().load(std::memory_order_relaxed)) return "avx512vl";
-  return cpu_has_fma() ? "avx2_fma" : "avx2";
+  if (simd_level() != SimdLevel::avx2) return FusedVariant::baseline;
+  if (cpu_has_avx512vl() && fused_avx512vl_allowed().load(std::memory_order_relaxed)) return FusedVariant::avx512vl;
+  return cpu_has_fma() ? FusedVariant::avx2_fma : FusedVariant::avx2;
 #else
-  return to_string(simd_level());
+  return simd_level() == SimdLevel::avx2 ? FusedVariant::avx2 : FusedVariant::baseline;
 #endif
+}
+
+/// fused_variant() for reports: "baseline", "avx2", "avx2_fma" or "avx512vl".
+inline const char* fused_isa() {
+  switch (fused_variant()) {
+    case FusedVariant::avx512vl: return "avx512vl";
+    case FusedVariant::avx2_fma: return "avx2_fma";
+    case FusedVariant::avx2: return "avx2";
+    default: return "baseline";
+  }
 }
 
 /// simd_call for kernels whose results need not round as the baseline level's do (sums that tests
@@ -232,9 +244,11 @@ inline const char* fused_isa() {
 template <typename F>
 void simd_call_fused(F&& f) {
 #if BINPICK_SIMD_DISPATCH
-  if (simd_level() == SimdLevel::avx2) {
-    if (cpu_has_avx512vl() && fused_avx512vl_allowed().load(std::memory_order_relaxed)) return simd_call_avx512vl(f);
-    return cpu_has_fma() ? simd_call_avx2_fma(f) : simd_call_avx2(f);
+  switch (fused_variant()) {
+    case FusedVariant::avx512vl: return simd_call_avx512vl(f);
+    case FusedVariant::avx2_fma: return simd_call_avx2_fma(f);
+    case FusedVariant::avx2: return simd_call_avx2(f);
+    default: break;
   }
 #endif
   f(std::integral_constant<int, kPackBytes>{});
