@@ -6,6 +6,7 @@
 #include <rapidcheck/gtest.h>
 
 #include "binpick/core.hpp"
+#include "binpick/core/detail/huge_pages.hpp"
 #include "binpick/core/detail/simd.hpp"
 #include "test_support.hpp"
 
@@ -215,3 +216,32 @@ void check_pack_load3_store3() {
 
 TEST(Simd, PackLoad3Store3Float) { check_pack_load3_store3<float>(); }
 TEST(Simd, PackLoad3Store3Double) { check_pack_load3_store3<double>(); }
+
+// reserve_huge is reserve() plus a hint: contents kept, capacity enough; a large buffer's capacity is
+// rounded so that the allocation (with the allocator's 24-byte chunk overhead) fills whole 2 MB pages.
+TEST(HugePages, ReserveHugeKeepsContentsAndRoundsLargeBuffers) {
+  using binpick::detail::kHugePageBytes;
+  std::vector<float> small{1.f, 2.f, 3.f};
+  binpick::detail::reserve_huge(small, 1000);
+  EXPECT_EQ(small.capacity(), 1000u);  // small: plain reserve
+  EXPECT_EQ(small, (std::vector<float>{1.f, 2.f, 3.f}));
+
+  std::vector<Eigen::Vector3f> big(5, Eigen::Vector3f(1, 2, 3));
+  const std::size_t n = 640 * 480;  // 3.7 MB of float points
+  binpick::detail::reserve_huge(big, n);
+  ASSERT_GE(big.capacity(), n);
+  EXPECT_LT(big.capacity() * sizeof(Eigen::Vector3f), n * sizeof(Eigen::Vector3f) + kHugePageBytes);
+  const std::size_t pages = (n * sizeof(Eigen::Vector3f) + 24 + kHugePageBytes - 1) / kHugePageBytes;
+  EXPECT_LE(big.capacity() * sizeof(Eigen::Vector3f) + 24, pages * kHugePageBytes);        // fits the pages
+  EXPECT_GT((big.capacity() + 1) * sizeof(Eigen::Vector3f) + 24, pages * kHugePageBytes);  // and fills them
+  ASSERT_EQ(big.size(), 5u);
+  for (const auto& p : big) EXPECT_EQ(p, Eigen::Vector3f(1, 2, 3));
+  big.resize(n, Eigen::Vector3f(4, 5, 6));  // the advised memory is ordinary memory
+  EXPECT_EQ(big[n - 1], Eigen::Vector3f(4, 5, 6));
+
+  const std::size_t cap = big.capacity();
+  binpick::detail::reserve_huge(big, 10);  // never shrinks
+  EXPECT_EQ(big.capacity(), cap);
+  binpick::detail::advise_huge_pages(nullptr, n);  // no-ops
+  binpick::detail::advise_huge_pages(big.data(), 1);
+}

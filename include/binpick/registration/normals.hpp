@@ -326,6 +326,7 @@ void estimate_organized_normals(OrganizedCloud<Scalar>& cloud, const OrganizedNo
               cloud.points.size() == std::size_t(cloud.width) * std::size_t(cloud.height),
           "cloud", "points.size() must equal width*height");
   const int threads = registration_detail::resolve_threads(settings.num_threads);
+  binpick::detail::reserve_huge(cloud.normals, cloud.points.size());
   cloud.normals.resize(cloud.points.size());  // every normal is written below (reused memory: no fill)
   registration_detail::organized_normals_into(cloud, settings, threads, cloud.normals.data());
 }
@@ -385,6 +386,7 @@ void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& c
     OrganizedCloud<Scalar> organized;
     organized.points.swap(out.points);
     backproject_organized(depth, camera, 1, organized, settings.num_threads);
+    binpick::detail::reserve_huge(out.normals, organized.points.size());
     out.normals.resize(organized.points.size());
     registration_detail::organized_normals_into(organized, settings, registration_detail::resolve_threads(settings.num_threads),
                                                 out.normals.data());
@@ -402,6 +404,8 @@ void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& c
   // Sized for every kept pixel and trimmed at the end: indexed writes instead of push_back.
   const int cols = (w + stride - 1) / stride;
   const std::size_t kept = std::size_t(cols) * std::size_t((h + stride - 1) / stride);
+  binpick::detail::reserve_huge(out.points, kept);
+  binpick::detail::reserve_huge(out.normals, kept);
   out.points.resize(kept);
   out.normals.resize(kept);
   std::size_t m = 0;

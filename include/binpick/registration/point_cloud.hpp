@@ -20,6 +20,7 @@
 
 #include "binpick/core/camera_model.hpp"
 #include "binpick/core/depth_image.hpp"
+#include "binpick/core/detail/huge_pages.hpp"
 #include "binpick/core/detail/simd.hpp"
 #include "binpick/core/errors.hpp"
 #include "binpick/core/pose.hpp"
@@ -166,6 +167,7 @@ void backproject_organized(const DepthImageView<Scalar>& depth, const Camera& ca
           "image size differs from the camera's");
   cloud.width = (depth.width() + stride - 1) / stride;
   cloud.height = (depth.height() + stride - 1) / stride;
+  binpick::detail::reserve_huge(cloud.points, std::size_t(cloud.width) * std::size_t(cloud.height));
   cloud.points.resize(std::size_t(cloud.width) * std::size_t(cloud.height));  // every point is written below
   // The encoding switch is taken once, not per pixel.
   const registration_detail::PixelBackprojector<Scalar, Camera> point(camera);
