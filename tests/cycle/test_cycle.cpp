@@ -127,6 +127,7 @@ struct OracleEstimator {
   std::vector<std::thread::id> threads;  // the thread of each call
   bool blind = false;                     // recognizes nothing
   S grasp_shift = 0;                       // every grasp moved this far along base x [m]: grips fail
+  bool weak_clear_top = false;  // the top part: 20 % and a clear grasp; the others: confident, not clear
   long with_obstacles = 0, only_in_obstacles = 0;  // calls given obstacles; pixels measured only there
   cycle::EstimationResult<S> estimate(const cycle::EstimatorInput<S, Camera>& in) {
     threads.push_back(std::this_thread::get_id());
@@ -166,6 +167,13 @@ struct OracleEstimator {
         o.T_camera_object = T_cam_base * p.T_base_part;
         o.T_camera_grasp = T_cam_base * G;
         o.confidence_percent = S(50) + S(1000) * p.T_base_part.translation().z();  // top parts first
+        if (weak_clear_top) {
+          const bool top = std::all_of(scene->parts().begin(), scene->parts().end(), [&](const auto& q) {
+            return q.T_base_part.translation().z() <= p.T_base_part.translation().z();
+          });
+          o.confidence_percent = top ? S(20) : o.confidence_percent;
+          o.grasp_clear = top;
+        }
         r.objects.push_back(o);
         break;
       }
@@ -188,7 +196,8 @@ struct TestCell {
   std::unique_ptr<simcell::SimGripper<S>> gripper;
   std::unique_ptr<Pipeline> pipeline;
 
-  TestCell(int parts, cycle::Strategy strategy, std::uint64_t seed = 5, bool vary_search = true, bool relook = true) {
+  TestCell(int parts, cycle::Strategy strategy, std::uint64_t seed = 5, bool vary_search = true, bool relook = true,
+           S confident_percent = 0) {
     sim::SceneSettings<S> ss;
     ss.part_type = sim::PartType::circle_nut;
     ss.num_parts = parts;
@@ -197,6 +206,7 @@ struct TestCell {
     ps.strategy = strategy;
     ps.vary_search = vary_search;
     ps.relook = relook;
+    ps.confident_percent = confident_percent;
     fake_robot = std::make_unique<sim::FakeRobot<S>>(clock, ps.T_base_drop);
     sim::StereoSensorSettings<S> st;
     st.width = 640;
@@ -327,6 +337,34 @@ TEST(Pipeline, AFailedGripTurnsTheNextSensingArc) {
   }
 }
 
+// Objects below confident_percent are grasped only when no confident object offers a grasp, not even
+// one the estimator found blocked: the top part (weak, clear) is taken first only when the threshold is 0.
+TEST(Pipeline, WeakObjectsAreALastResort) {
+  for (const S confident : {S(0), S(35)}) {
+    TestCell cell(3, cycle::Strategy::ours, 5, true, true, confident);
+    cell.estimator.weak_clear_top = true;
+    int top = -1;
+    S top_z = -1;
+    for (const auto& p : cell.scene.parts())
+      if (p.T_base_part.translation().z() > top_z) {
+        top_z = p.T_base_part.translation().z();
+        top = p.id;
+      }
+    const auto r = cell.pipeline->run_cycle();
+    ASSERT_EQ(r.status, cycle::CycleStatus::picked) << r.error;
+    const bool top_left = std::any_of(cell.scene.parts().begin(), cell.scene.parts().end(),
+                                      [&](const auto& p) { return p.id == top; });
+    EXPECT_EQ(top_left, confident > 0) << confident;
+    EXPECT_EQ(r.grasp_clear, confident == 0) << confident;
+  }
+  // Only weak objects: still grasped, not a search.
+  TestCell cell(1, cycle::Strategy::ours, 5, true, true, S(35));
+  cell.estimator.weak_clear_top = true;
+  const auto r = cell.pipeline->run_cycle();
+  EXPECT_EQ(r.status, cycle::CycleStatus::picked) << r.error;
+  EXPECT_TRUE(cell.scene.parts().empty());
+}
+
 TEST(Pipeline, ProcessesEveryCycleOnOneThreadItOwns) {
   TestCell cell(3, cycle::Strategy::ours);
   for (int k = 0; k < 3; ++k) {
@@ -407,6 +445,9 @@ TEST(Pipeline, RejectsBadSettings) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("'fixed_compute_time'"), std::string::npos) << e.what();
   }
+  ps = {};
+  ps.confident_percent = 101;
+  EXPECT_THROW(TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -133,6 +133,7 @@ struct CellOptions {
 /// One bin with its drivers and a pipeline over them.
 struct Cell {
   using S = float;
+  static constexpr S kWeakConfidence = 20;  ///< [%] the estimator's threshold in the cell
   using Camera = PinholeCamera<S>;
   using Robot = FaultyRobot<S>;
   using Sensor = FaultySensor<S>;
@@ -168,6 +169,10 @@ struct Cell {
     sim::ReferenceEstimatorSettings<S> es;
     es.num_threads = o.threads;
     es.gripper.approach_opening = sim::widest_opening(scene.model(o.part));  // as SimGripper opens
+    // Weak fits are reported too; the pipeline grasps them only when no confident object offers a
+    // grasp (PipelineSettings::confident_percent, at the estimator's default threshold).
+    ps.confident_percent = es.min_confidence;
+    es.min_confidence = kWeakConfidence;
     estimator = std::make_unique<sim::ReferenceEstimator<S, Camera>>(scene.model(o.part), es);
     gripper = std::make_unique<SimGripper<S>>(scene, o.part);
     ps.fusion.num_threads = o.threads;

@@ -17,8 +17,11 @@
 ///     *remaining* objects, Alg. 2) and the next dropping path. At C the part is released; the robot
 ///     waits only if processing is not done yet;
 ///  3. grasp: C → above the grasp pose → grasp (A) → lift to the next pull-up point B.
-/// The first cycle uses a predefined path (Alg. 2 aimed at the bin centre from a home point above
-/// it). When nothing is recognized (or no grasp is reachable) the next cycle runs the *search move*:
+/// The object to grasp: the most confident one whose grasp the estimator found clear and that lies away
+/// from the grips that failed since the last success; objects below `confident_percent` only when no
+/// other offers a grasp at all. The first cycle uses a predefined path (Alg. 2 aimed at the bin centre
+/// from a home point above it). When nothing is recognized (or no grasp is reachable) the next cycle
+/// runs the *search move*:
 /// from the home point, an arc over the bin centre with `search_beta_factor` × β coverage — a wider
 /// look — counted in CycleResult::search. Searches in a row (no grasp between them) aim in turn at the
 /// bin centre and at the centres of its four quarters, each from above it looking outward
@@ -152,6 +155,12 @@ struct PipelineSettings {
   /// After a failed grip, objects whose grasp point lies within this of it are chosen only when no other
   /// is left, until a grip succeeds: the same fused depth gives the same wrong pose again [m].
   Scalar retry_distance = Scalar(0.01);
+  /// [%] Objects the estimator reports with less confidence are grasped only when no other object
+  /// offers a grasp: a last try before the search move. Parts the sensor sees poorly from every side
+  /// (a mirror-polished nut lying flat shows only its rims) keep a weak fit, and looking again rarely
+  /// shows them better; a run would end on them. Takes effect when the estimator reports such objects
+  /// (its own threshold lower than this). 0: every reported object alike.
+  Scalar confident_percent = Scalar(0);
   std::uint64_t seed = 1;                  ///< random target points of random_path
   bool keep_images = false;                ///< keep the fused depth and votes in the CycleResult
   /// A pose read or a frame stamped further than this from its view's trigger is not matched to the
@@ -346,6 +355,8 @@ class PickingPipeline {
     require(std::isfinite(s.crop_floor) && s.crop_floor >= 0, "crop_floor", "must be finite and >= 0");
     require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");
     require(std::isfinite(s.retry_distance) && s.retry_distance >= 0, "retry_distance", "must be finite and >= 0");
+    require(std::isfinite(s.confident_percent) && s.confident_percent >= 0 && s.confident_percent <= 100, "confident_percent",
+            "must be in [0, 100]");
     require(s.bin_length > 0 && s.bin_width > 0 && s.bin_height > 0, "bin_length", "bin sizes must be > 0");
     require_all_finite(s.bin_center, "bin_center");
     require_valid_pose(s.T_flange_camera, "T_flange_camera");
@@ -659,9 +670,10 @@ class PickingPipeline {
     out.objects_base = positions;
     // The object to grasp, among those whose grasp lies above the floor and within the tilt limit: the
     // first (objects come sorted by confidence) of the best tier — 0: the estimator found its grasp clear
-    // and it is away from the grips that failed since the last success, 1: clear, 2: any.
+    // and it is away from the grips that failed since the last success, 1: clear, 2: any; the same
+    // three again (3-5) for objects below confident_percent.
     std::size_t chosen = active_vision::no_grasped_object;
-    int best_tier = 3;
+    int best_tier = 6;
     for (std::size_t k = 0; k < est.objects.size() && best_tier > 0; ++k) {
       const Pose T = T_base_ref * est.objects[k].T_camera_grasp;
       if (!detail::is_rigid_finite(T)) continue;
@@ -670,7 +682,8 @@ class PickingPipeline {
       const bool near_failed = std::any_of(failed_grasps_.begin(), failed_grasps_.end(), [&](const Vec3& f) {
         return (f - T.translation()).norm() < s_.retry_distance;
       });
-      const int tier = !est.objects[k].grasp_clear ? 2 : near_failed ? 1 : 0;
+      const int tier = (!est.objects[k].grasp_clear ? 2 : near_failed ? 1 : 0) +
+                       (est.objects[k].confidence_percent < s_.confident_percent ? 3 : 0);
       if (tier < best_tier) {
         best_tier = tier;
         chosen = k;
