@@ -157,6 +157,26 @@ TEST(Parts, FingersOfEveryGraspStayOutsideTheirPart) {
   }
 }
 
+// From above, a LAN connector lying flat and one on its side both show a 21 mm long box: in each rest
+// orientation the first registered grasp approaching from above closes end to end along that long
+// axis, so an estimate that takes one pose for the other still grips it the same way.
+TEST(Parts, LanConnectorGripFromAboveIsTheSameFlatOrOnItsSide) {
+  const auto part = make_part<double>(PartType::lan_connector);
+  ASSERT_EQ(part.rest_orientations.size(), 3u);
+  for (const Eigen::Matrix3d& R : part.rest_orientations) {
+    const GraspPose<double>* first = nullptr;
+    for (const auto& g : part.grasps)
+      if ((R * g.T_part_grasp.linear().col(2)).z() < -0.99) {
+        first = &g;
+        break;
+      }
+    ASSERT_NE(first, nullptr);
+    const Eigen::Vector3d closing = R * first->T_part_grasp.linear().col(0);
+    EXPECT_GT(std::abs(closing.dot(R * Eigen::Vector3d::UnitX())), 0.999);  // the 21 mm axis
+    EXPECT_NEAR(first->opening, 0.021, 1e-9);
+  }
+}
+
 TEST(Parts, InsideTestSeesTheSolid) {
   const auto nut = make_part<double>(PartType::circle_nut);
   // Origin is in the bore (not solid); a point in the annulus at mid-height is solid.

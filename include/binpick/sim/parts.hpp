@@ -198,9 +198,14 @@ PartModel<Scalar> make_part(PartType type) {
                              detail::rot<Scalar>(X, -half_pi)};
       // Lying flat (z up or down): end to end along x. Across y the fingers (8 mm wide, centred on the
       // body) would stand in the latch, which rises to y = 10 over x in [-6, 8].
-      // On a side (latch up or down): across the 11.7 mm thickness, from either side.
+      // On a side (latch up or down): end to end along x as well, and across the 11.7 mm thickness,
+      // from either side. From above, flat and on a side both show a 21 mm long box 12-14 mm wide, and
+      // a pose estimate on metal depth may take one for the other; the end-to-end grip is the same
+      // grip for both, so it comes first (the estimator prefers the earlier of equally aligned grasps).
       p.grasps = {detail::grasp<Scalar>(V3::Zero(), -Z, X, Scalar(21) * mm),
                   detail::grasp<Scalar>(V3::Zero(), Z, X, Scalar(21) * mm),
+                  detail::grasp<Scalar>(V3::Zero(), -Y, X, Scalar(21) * mm),
+                  detail::grasp<Scalar>(V3::Zero(), Y, X, Scalar(21) * mm),
                   detail::grasp<Scalar>(V3::Zero(), -Y, Z, Scalar(11.7) * mm),
                   detail::grasp<Scalar>(V3::Zero(), Y, Z, Scalar(11.7) * mm)};
       p.gripper = cycle::GripperKind::two_finger;
