@@ -12,8 +12,9 @@
 /// \endcode
 /// or, in one call, `align_depth_views(source, source_camera, target, target_camera, T_init, settings)`.
 /// The one call allocates about 15 MB at 640 x 480; where page faults are expensive (virtual
-/// machines) it costs several times the registration itself (README, "host" line of the benchmarks),
-/// so loops keep the target's cloud and an AlignWorkspace across frames.
+/// machines) it costs several times the registration itself even with the huge pages the library asks
+/// for (README, "host" line of the benchmarks: 24 ms against 5.6 ms kept on one such host), so loops
+/// keep the target's cloud and an AlignWorkspace across frames.
 /// The source is every `settings.stride`-th row and column of the source image (stride 4 = 1/16 of the
 /// pixels); association is projective into the target image (window `ProjectiveAssociationSettings`),
 /// target normals come from the organized image (`OrganizedNormalSettings`).
