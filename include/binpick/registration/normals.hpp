@@ -18,6 +18,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "binpick/core/detail/huge_pages.hpp"
 #include "binpick/core/detail/simd.hpp"
 #include "binpick/core/errors.hpp"
 #include "binpick/registration/detail/parallel.hpp"
