@@ -577,13 +577,12 @@ class ReferenceEstimator {
       E.col(2) = -E.col(2);
       E.col(1) = -E.col(1);
     }
-    // The segment without its edge fringe (edge_band_px): what the refined fit must explain.
+    // What the refined fit must explain: the segment, without its edge fringe when edge_band_px is set.
     std::vector<Vec3> core;
-    core.reserve(cells.size());
-    const int band = (s_.edge_band_px + g.stride - 1) / g.stride;
-    for (const auto c : cells)
-      if (!beside_drop(g, int(c % std::uint32_t(g.width)), int(c / std::uint32_t(g.width)), band)) core.push_back(g.points[c]);
-    if (core.empty()) core = seg;
+    if (s_.edge_band_px > 0)
+      for (const auto c : cells)
+        if (!beside_drop(g, int(c % std::uint32_t(g.width)), int(c / std::uint32_t(g.width)))) core.push_back(g.points[c]);
+    const std::vector<Vec3>& to_explain = core.empty() ? seg : core;
     std::vector<std::uint32_t> sorted_cells(cells);
     std::sort(sorted_cells.begin(), sorted_cells.end());
     PointCloud<Scalar> coarse_src;
@@ -631,7 +630,7 @@ class ReferenceEstimator {
         h2.model = int(mi);
         h2.T_camera_object = turn_to_outline(pm, refine(g, cam, pm, fitted[order[k]]), seg);
         // The part must explain its own segment (a part-sized piece of a bin rim does not).
-        if (explained_share(pm, h2.T_camera_object, core) < s_.min_segment_explained) continue;
+        if (explained_share(pm, h2.T_camera_object, to_explain) < s_.min_segment_explained) continue;
         score(g, cam, pm, h2, true);
         const Scalar rank = h2.confidence * coverage(h2, sorted_cells);
         if (rank > best_rank || best.model < 0) {
@@ -732,7 +731,6 @@ class ReferenceEstimator {
                            const Isometry3<Scalar>& T_camera_object) const {
     Isometry3<Scalar> T = T_camera_object;
     PointCloud<Scalar> crop;
-    const int band = (s_.edge_band_px + g.stride - 1) / g.stride;
     for (int round = 0; round < 2; ++round) {
       const Scalar reach = pm.model.bounding_radius + Scalar(0.002);
       crop.points.clear();
@@ -741,7 +739,7 @@ class ReferenceEstimator {
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i) {
           const std::size_t k = g.index(i, j);
-          if (g.valid(k) && (g.points[k] - T.translation()).squaredNorm() <= reach * reach && !beside_drop(g, i, j, band))
+          if (g.valid(k) && (g.points[k] - T.translation()).squaredNorm() <= reach * reach && !beside_drop(g, i, j))
             crop.points.push_back(g.points[k]);
         }
       IcpSettings<Scalar> is;
@@ -757,10 +755,11 @@ class ReferenceEstimator {
     return T;
   }
 
-  /// True when a valid cell of row j within `band` cells of (i, j), on the edge_band_side, lies more
-  /// than edge_jump farther: (i, j) may be the foreground value a stereo matcher spread over the
-  /// background (edge_band_px). Holes do not count: the occlusion side of an edge is a hole.
-  bool beside_drop(const detail::DepthGrid<Scalar>& g, int i, int j, int band) const {
+  /// True when a valid cell of row j within edge_band_px (in cells) of (i, j), on the edge_band_side,
+  /// lies more than edge_jump farther: (i, j) may be the foreground value a stereo matcher spread over
+  /// the background. Holes do not count: the occlusion side of an edge is a hole.
+  bool beside_drop(const detail::DepthGrid<Scalar>& g, int i, int j) const {
+    const int band = (s_.edge_band_px + g.stride - 1) / g.stride;
     if (band <= 0) return false;
     const Scalar limit = g.points[g.index(i, j)].z() + s_.edge_jump;
     const int lo = s_.edge_band_side > 0 ? i + 1 : std::max(0, i - band);
