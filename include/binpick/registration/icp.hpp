@@ -15,8 +15,8 @@
 ///     g = Σ w J r.  Point-to-point: weighted Kabsch/Umeyama (SVD of the cross-covariance).
 ///  4. T ← ΔT T; stop when ΔT rotates less than `rotation_epsilon` and moves the source centroid
 ///     less than `translation_epsilon`.
-/// A large source is registered coarse to fine (IcpSettings::coarse_points): a subsample first (copied
-/// out once), then all points from its pose.
+/// A large source is registered coarse to fine (IcpSettings::coarse_points): a subsample first (runs
+/// of consecutive points, copied out once), then all points from its pose.
 /// Degeneracy (point-to-plane): H is scaled to unit mean diagonal per block (rotation, translation);
 /// eigen-directions whose eigenvalue is below `degeneracy_threshold` × the largest are unobservable
 /// (e.g. sliding on one plane) and the update is confined to the observable subspace, so those
@@ -101,8 +101,9 @@ struct IcpSettings {
   /// busy 2-core machine). 0 = all cores; the last bits of the result depend on the count (file comment).
   int num_threads = 1;
   /// Coarse to fine: when the (strided) source has more than 4 x coarse_points points, ICP first runs
-  /// on every k-th of them (about coarse_points; 10 x the epsilons; at most half of max_iterations),
-  /// then on all of them from that pose, so the result is still that of the full source. What it
+  /// on about coarse_points of them (runs of 16 consecutive points spread over the source; 10 x the
+  /// epsilons; at most half of max_iterations), then on all of them from that pose, so the result is
+  /// still that of the full source. What it
   /// saves is the cost of the first iterations, which for the kd-tree association grows with the
   /// source's distance from the target (a 640 x 480 pair 3 mm / 1 deg off: the first full search
   /// took 240 of the 410 ms of ICP; coarse to fine took 190 ms, same pose and RMSE). `iterations`
@@ -162,6 +163,10 @@ constexpr std::ptrdiff_t kPlaneBlock = 256;
 
 /// Points the rotation centre of the fused point-to-plane pass is averaged from (icp_one_scale).
 constexpr std::size_t kCentroidPoints = 4096;
+
+/// Consecutive source points per run of the coarse stage's subsample (icp()): a pack of the widest
+/// SIMD level, so its partners are mostly read by pack loads.
+constexpr std::ptrdiff_t kCoarseRun = 16;
 
 /// The 21 upper-triangle terms of Σ w J Jᵀ (row-major), the 6 of Σ w r J, Σ r² and the count of one
 /// block, in Scalar.
@@ -814,18 +819,25 @@ IcpResult<Scalar> icp(const PointCloud<Scalar>& source, const Association& assoc
   if (coarse_points == 0 || strided <= 4 * coarse_points || settings.max_iterations < 2)
     return rd::icp_one_scale(source, association, T_target_source_init, T_target_source_init, settings, workspace);
   IcpSettings<Scalar> coarse = settings;
-  const std::size_t k = (strided + coarse_points - 1) / coarse_points;
-  // The coarse points copied out once: its iterations then read a few hundred kB in order instead of
-  // a cache line or two per point of the whole cloud (the same points, in the same order).
-  const std::size_t step = std::size_t(settings.stride) * k;
+  // The coarse points: runs of kCoarseRun consecutive strided points, one run every `spacing`
+  // (about coarse_points in all), copied out once. Its iterations then read a few hundred kB in order,
+  // and each pack of partners is mostly consecutive target pixels read by pack loads, where single
+  // points every k-th took a cache line or two each. The spacing is odd so that on an image the
+  // runs do not fall into the same columns row after row (640 columns and a spacing of 256 sampled
+  // five column stripes and cost the fine stage a second pass).
+  const std::size_t run = std::size_t(rd::kCoarseRun), k = (strided + coarse_points - 1) / coarse_points;
+  const std::size_t spacing = run * k + 1;
   PointCloud<Scalar>& sub = workspace.coarse;
   sub.points.clear();
   sub.normals.clear();
-  sub.points.reserve(source.points.size() / step + 1);
-  for (std::size_t i = 0; i < source.points.size(); i += step) sub.points.push_back(source.points[i]);
+  sub.points.reserve(strided / spacing * run + run);
+  const std::size_t stride = std::size_t(settings.stride);
+  for (std::size_t j = 0; j < strided; j += spacing)
+    for (std::size_t s = j; s < std::min(strided, j + run); ++s) sub.points.push_back(source.points[s * stride]);
   if (source.has_normals()) {
     sub.normals.reserve(sub.points.size());
-    for (std::size_t i = 0; i < source.points.size(); i += step) sub.normals.push_back(source.normals[i]);
+    for (std::size_t j = 0; j < strided; j += spacing)
+      for (std::size_t s = j; s < std::min(strided, j + run); ++s) sub.normals.push_back(source.normals[s * stride]);
   }
   coarse.stride = 1;
   coarse.max_iterations = settings.max_iterations / 2;
