@@ -261,9 +261,14 @@ void check_coarse_to_fine_ends_where_one_stage_ends() {
   // 0.023 deg and coarse to fine 0.013 deg from the truth, 0.036 deg apart.
   RC_ASSERT(tb < ta + 0.05e-3);
   RC_ASSERT(rb < ra + 0.02 * kDeg);
-  const auto [et, er] = pose_error<Scalar>(b.T_target_source, a.T_target_source);
-  RC_ASSERT(et < 0.05e-3);
-  RC_ASSERT(er < 0.05 * kDeg);
+  // Where one stage ends, coarse to fine ends too. One stage may not end: a generated pile (float)
+  // had it still moving after 30 iterations, 0.091 mm from the truth, where coarse to fine converged
+  // in 5, 0.036 mm from it (0.126 mm apart). Then only the accuracy above is compared.
+  if (a.status == IcpStatus::converged) {
+    const auto [et, er] = pose_error<Scalar>(b.T_target_source, a.T_target_source);
+    RC_ASSERT(et < 0.05e-3);
+    RC_ASSERT(er < 0.05 * kDeg);
+  }
   const auto [tt, tr] = pose_error<Scalar>(b.T_target_source, p.T_true.template cast<Scalar>());
   RC_ASSERT(tt < 1e-3);
   RC_ASSERT(tr < 0.4 * kDeg);
