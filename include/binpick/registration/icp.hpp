@@ -164,8 +164,9 @@ constexpr std::ptrdiff_t kPlaneBlock = 256;
 /// Points the rotation centre of the fused point-to-plane pass is averaged from (icp_one_scale).
 constexpr std::size_t kCentroidPoints = 4096;
 
-/// Consecutive source points per run of the coarse stage's subsample (icp()): a pack of the widest
-/// SIMD level, so its partners are mostly read by pack loads.
+/// Consecutive source points per run of the coarse stage's subsample (icp()): whole packs at every
+/// SIMD level (the widest holds 8 floats or 4 doubles), so a run's partners are mostly read by pack
+/// loads.
 constexpr std::ptrdiff_t kCoarseRun = 16;
 
 /// The 21 upper-triangle terms of Σ w J Jᵀ (row-major), the 6 of Σ w r J, Σ r² and the count of one
