@@ -128,6 +128,7 @@ struct OracleEstimator {
   bool blind = false;                     // recognizes nothing
   S grasp_shift = 0;                       // every grasp moved this far along base x [m]: grips fail
   bool weak_clear_top = false;  // the top part: 20 % and a clear grasp; the others: confident, not clear
+  bool all_blocked = false;     // every grasp reported blocked (grasp_clear false)
   long with_obstacles = 0, only_in_obstacles = 0;  // calls given obstacles; pixels measured only there
   cycle::EstimationResult<S> estimate(const cycle::EstimatorInput<S, Camera>& in) {
     threads.push_back(std::this_thread::get_id());
@@ -174,6 +175,7 @@ struct OracleEstimator {
           o.confidence_percent = top ? S(20) : o.confidence_percent;
           o.grasp_clear = top;
         }
+        if (all_blocked) o.grasp_clear = false;
         r.objects.push_back(o);
         break;
       }
@@ -197,7 +199,7 @@ struct TestCell {
   std::unique_ptr<Pipeline> pipeline;
 
   TestCell(int parts, cycle::Strategy strategy, std::uint64_t seed = 5, bool vary_search = true, bool relook = true,
-           S confident_percent = 0) {
+           S confident_percent = 0, bool grasp_blocked = false) {
     sim::SceneSettings<S> ss;
     ss.part_type = sim::PartType::circle_nut;
     ss.num_parts = parts;
@@ -207,6 +209,7 @@ struct TestCell {
     ps.vary_search = vary_search;
     ps.relook = relook;
     ps.confident_percent = confident_percent;
+    ps.grasp_blocked = grasp_blocked;
     fake_robot = std::make_unique<sim::FakeRobot<S>>(clock, ps.T_base_drop);
     sim::StereoSensorSettings<S> st;
     st.width = 640;
@@ -338,31 +341,57 @@ TEST(Pipeline, AFailedGripTurnsTheNextSensingArc) {
 }
 
 // Objects below confident_percent are grasped only when no confident object offers a grasp, not even
-// one the estimator found blocked: the top part (weak, clear) is taken first only when the threshold is 0.
+// one the estimator found blocked (when blocked grasps are tried at all, grasp_blocked): the top part
+// (weak, clear) is taken first when the threshold is 0, or when blocked grasps are not tried.
 TEST(Pipeline, WeakObjectsAreALastResort) {
-  for (const S confident : {S(0), S(35)}) {
-    TestCell cell(3, cycle::Strategy::ours, 5, true, true, confident);
-    cell.estimator.weak_clear_top = true;
-    int top = -1;
-    S top_z = -1;
-    for (const auto& p : cell.scene.parts())
-      if (p.T_base_part.translation().z() > top_z) {
-        top_z = p.T_base_part.translation().z();
-        top = p.id;
-      }
-    const auto r = cell.pipeline->run_cycle();
-    ASSERT_EQ(r.status, cycle::CycleStatus::picked) << r.error;
-    const bool top_left = std::any_of(cell.scene.parts().begin(), cell.scene.parts().end(),
-                                      [&](const auto& p) { return p.id == top; });
-    EXPECT_EQ(top_left, confident > 0) << confident;
-    EXPECT_EQ(r.grasp_clear, confident == 0) << confident;
-  }
+  for (const bool grasp_blocked : {true, false})
+    for (const S confident : {S(0), S(35)}) {
+      TestCell cell(3, cycle::Strategy::ours, 5, true, true, confident, grasp_blocked);
+      cell.estimator.weak_clear_top = true;
+      int top = -1;
+      S top_z = -1;
+      for (const auto& p : cell.scene.parts())
+        if (p.T_base_part.translation().z() > top_z) {
+          top_z = p.T_base_part.translation().z();
+          top = p.id;
+        }
+      const auto r = cell.pipeline->run_cycle();
+      ASSERT_EQ(r.status, cycle::CycleStatus::picked) << r.error;
+      const bool top_left = std::any_of(cell.scene.parts().begin(), cell.scene.parts().end(),
+                                        [&](const auto& p) { return p.id == top; });
+      const bool weak_first = confident == 0 || !grasp_blocked;
+      EXPECT_EQ(top_left, !weak_first) << confident << " " << grasp_blocked;
+      EXPECT_EQ(r.grasp_clear, weak_first) << confident << " " << grasp_blocked;
+    }
   // Only weak objects: still grasped, not a search.
   TestCell cell(1, cycle::Strategy::ours, 5, true, true, S(35));
   cell.estimator.weak_clear_top = true;
   const auto r = cell.pipeline->run_cycle();
   EXPECT_EQ(r.status, cycle::CycleStatus::picked) << r.error;
   EXPECT_TRUE(cell.scene.parts().empty());
+}
+
+// A grasp the estimator found blocked is not tried by default: the cycle grips nothing and the next one
+// runs the search move. With grasp_blocked it is tried (the oracle's grasps are exact, so it holds).
+TEST(Pipeline, BlockedGraspsAreNotTriedByDefault) {
+  for (const bool grasp_blocked : {false, true}) {
+    TestCell cell(3, cycle::Strategy::ours, 5, true, true, S(0), grasp_blocked);
+    cell.estimator.all_blocked = true;
+    const auto r1 = cell.pipeline->run_cycle();
+    ASSERT_TRUE(r1.error.empty()) << r1.error;
+    EXPECT_GT(r1.recognized, 0) << grasp_blocked;
+    if (grasp_blocked) {
+      EXPECT_EQ(r1.status, cycle::CycleStatus::picked) << r1.error;
+      EXPECT_FALSE(r1.grasp_clear);
+      EXPECT_EQ(int(cell.scene.parts().size()), 2);
+      continue;
+    }
+    EXPECT_EQ(r1.status, cycle::CycleStatus::nothing_recognized);
+    EXPECT_EQ(int(cell.scene.parts().size()), 3);  // no grip was tried
+    const auto r2 = cell.pipeline->run_cycle();
+    EXPECT_TRUE(r2.search);
+    EXPECT_EQ(int(cell.scene.parts().size()), 3);
+  }
 }
 
 TEST(Pipeline, ProcessesEveryCycleOnOneThreadItOwns) {

@@ -53,7 +53,8 @@ struct RecognizedObject {
   Isometry3<Scalar> T_camera_grasp = Isometry3<Scalar>::Identity();   ///< best grasp: z = approach, x = closing
   GripperKind gripper = GripperKind::two_finger;
   /// False when the estimator found the gripper at T_camera_grasp in conflict with the measured
-  /// scene (it returns the object anyway): such grasps are tried last. Estimators that do not check
+  /// scene (it returns the object anyway; it still weights the next sensing path): the pipeline does
+  /// not grasp it unless PipelineSettings::grasp_blocked, then last. Estimators that do not check
   /// leave it true.
   bool grasp_clear = true;
 };
