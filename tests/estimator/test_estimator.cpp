@@ -399,8 +399,10 @@ TEST(ReferenceEstimator, RejectsBadInput) {
   ReferenceEstimatorSettings<float> bad;
   bad.support_distance = 0;
   EXPECT_THROW(Estimator(make_part<float>(PartType::mirror_nut), bad), std::invalid_argument);
-  for (int k = 0; k < 5; ++k) {
+  for (int k = 0; k < 7; ++k) {
     ReferenceEstimatorSettings<float> b;
+    if (k == 5) b.min_part_cells = 0;
+    if (k == 6) b.min_part_cells = std::numeric_limits<float>::quiet_NaN();
     if (k == 0) b.own_surface_margin = std::numeric_limits<float>::quiet_NaN();
     if (k == 1) b.min_colliding_samples = 0;
     if (k == 2) b.gripper.approach_opening = std::numeric_limits<float>::infinity();
@@ -408,6 +410,36 @@ TEST(ReferenceEstimator, RejectsBadInput) {
     if (k == 4) b.edge_band_side = 2;
     EXPECT_THROW(Estimator(make_part<float>(PartType::mirror_nut), b), std::invalid_argument) << k;
   }
+}
+
+// The automatic grid stride: every pixel at 640 px wide; at 1280 px, every pixel for the hex nut (its
+// 9.9 mm bounding radius spans 17 px at 0.3 m) and every second pixel for the coupler (16.9 mm, 29 px),
+// every pixel for both models together, and for the coupler again when it lies twice as far. The
+// stride follows the image's depth and the smallest model, never coarser than ceil(width / 640).
+TEST(ReferenceEstimator, AutomaticStrideFollowsTheSmallestPart) {
+  const auto stride = [](std::vector<PartType> types, int width, float depth_m, int fixed = 0) {
+    StereoSensorSettings<float> ss;
+    ss.width = width;
+    ss.height = width * 4 / 5;
+    const Camera camera = StereoSensor<float>(ss).camera();
+    DepthImage<float> depth(camera.width(), camera.height());
+    for (int v = 0; v < camera.height(); ++v)
+      for (int u = 0; u < camera.width(); ++u) depth.data()[std::size_t(v) * std::size_t(camera.width()) + std::size_t(u)] = depth_m;
+    std::vector<PartModel<float>> models;
+    for (const PartType t : types) models.push_back(make_part<float>(t));
+    ReferenceEstimatorSettings<float> s;
+    s.stride = fixed;
+    return Estimator(models, s).estimate_detailed(input_of(depth, camera)).stride;
+  };
+  for (const PartType t : {PartType::small_screw, PartType::lan_connector, PartType::mirror_nut, PartType::pencil_coupler,
+                           PartType::circle_nut})
+    EXPECT_EQ(stride({t}, 640, 0.3f), 1) << part_type_name(t);
+  EXPECT_EQ(stride({PartType::mirror_nut}, 1280, 0.3f), 1);
+  EXPECT_EQ(stride({PartType::pencil_coupler}, 1280, 0.3f), 2);
+  EXPECT_EQ(stride({PartType::pencil_coupler, PartType::mirror_nut}, 1280, 0.3f), 1);
+  EXPECT_EQ(stride({PartType::pencil_coupler}, 1280, 0.6f), 1);
+  EXPECT_EQ(stride({PartType::mirror_nut}, 2560, 0.3f), 2);  // 34 px across its radius: 17 cells at stride 2
+  EXPECT_EQ(stride({PartType::mirror_nut}, 1280, 0.3f, 3), 3);  // as set
 }
 
 // Grasp model: a true grasp of a lone part succeeds; moved off it, it matches nothing; the same grasp
