@@ -422,9 +422,7 @@ TEST(ReferenceEstimator, AutomaticStrideFollowsTheSmallestPart) {
     ss.width = width;
     ss.height = width * 4 / 5;
     const Camera camera = StereoSensor<float>(ss).camera();
-    DepthImage<float> depth(camera.width(), camera.height());
-    for (int v = 0; v < camera.height(); ++v)
-      for (int u = 0; u < camera.width(); ++u) depth.data()[std::size_t(v) * std::size_t(camera.width()) + std::size_t(u)] = depth_m;
+    const DepthImage<float> depth(camera.width(), camera.height(), depth_m);
     std::vector<PartModel<float>> models;
     for (const PartType t : types) models.push_back(make_part<float>(t));
     ReferenceEstimatorSettings<float> s;

@@ -687,10 +687,10 @@ class PickingPipeline {
       if (!detail::is_rigid_finite(T)) continue;
       if (T.translation().z() - s_.bin_center.z() < s_.min_grasp_height) continue;
       if (-T.linear().col(2).z() < std::cos(s_.max_approach_tilt)) continue;
+      if (!est.objects[k].grasp_clear && !s_.grasp_blocked) continue;
       const bool near_failed = std::any_of(failed_grasps_.begin(), failed_grasps_.end(), [&](const Vec3& f) {
         return (f - T.translation()).norm() < s_.retry_distance;
       });
-      if (!est.objects[k].grasp_clear && !s_.grasp_blocked) continue;
       const int tier = (!est.objects[k].grasp_clear ? 2 : near_failed ? 1 : 0) +
                        (est.objects[k].confidence_percent < s_.confident_percent ? 3 : 0);
       if (tier < best_tier) {

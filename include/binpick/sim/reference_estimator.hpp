@@ -169,6 +169,7 @@ struct DepthGrid {
   std::vector<Vector3<Scalar>> normals;  ///< toward the camera; zero: unknown
   std::vector<Scalar> footprint;         ///< side of the cell on the surface [m]
   std::vector<Scalar> nearest;           ///< smallest valid depth of the 3×3 neighbourhood [m] (+inf: none)
+  std::vector<Scalar> depth_sample;      ///< scratch: the automatic stride's depth sample (kept across calls)
   std::size_t index(int i, int j) const { return std::size_t(j) * std::size_t(width) + std::size_t(i); }
   bool valid(std::size_t k) const { return points[k].z() > Scalar(0); }
 };
@@ -372,13 +373,13 @@ class ReferenceEstimator {
     return a;
   }
 
-  /// The grid's stride for this input (settings: stride, min_part_cells).
-  int stride_for(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam) const {
+  /// The grid's stride for this input (settings: stride, min_part_cells); `z` is scratch memory.
+  int stride_for(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam, std::vector<Scalar>& z) const {
     if (s_.stride > 0) return s_.stride;
     const int widest = std::max(1, (cam.width() + 639) / 640);
     if (widest == 1) return 1;
     // Median depth of a sparse sample inside the region of interest.
-    std::vector<Scalar> z;
+    z.clear();
     const int u0 = std::max(0, s_.roi_u0), v0 = std::max(0, s_.roi_v0);
     const int u1 = std::min(cam.width() - 1, s_.roi_u1), v1 = std::min(cam.height() - 1, s_.roi_v1);
     for (int v = v0; v <= v1; v += 8)
@@ -399,7 +400,7 @@ class ReferenceEstimator {
 
   // 1. The grid and its normals.
   void make_grid(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam, detail::DepthGrid<Scalar>& g) const {
-    g.stride = stride_for(input, cam);
+    g.stride = stride_for(input, cam, g.depth_sample);
     g.width = (cam.width() + g.stride - 1) / g.stride;
     g.height = (cam.height() + g.stride - 1) / g.stride;
     const std::size_t n = std::size_t(g.width) * std::size_t(g.height);
