@@ -28,7 +28,8 @@ std::vector<Scene<Scalar>> make_scenes(int count, int objects) {
   std::vector<Scene<Scalar>> scenes(static_cast<std::size_t>(count));
   for (auto& s : scenes) {
     for (int k = 0; k < objects; ++k) {
-      s.positions.emplace_back(Scalar(ux(rng)), Scalar(uy(rng)), Scalar(uz(rng)));
+      const double z = uz(rng), y = uy(rng), x = ux(rng);  // one draw per declarator: a fixed order
+      s.positions.emplace_back(Scalar(x), Scalar(y), Scalar(z));
       s.confidences.push_back(Scalar(uc(rng)));
     }
     s.grasped = std::size_t(rng() % std::uint32_t(objects));

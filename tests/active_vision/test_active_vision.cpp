@@ -123,7 +123,7 @@ template <typename Scalar>
 void sensing_path_properties() {
   const SensingPathRequest<Scalar> q = random_request<Scalar>();
   const auto path = plan_sensing_path(q);
-  RC_CLASSIFY(path.ok());
+  RC_CLASSIFY(path.ok(), "plan ok");
   // Independent reference geometry, in double.
   const Eigen::Vector3d A = q.grasp.template cast<double>(), B = q.lift.template cast<double>(),
                         C = q.drop.template cast<double>(), T = q.target.template cast<double>();

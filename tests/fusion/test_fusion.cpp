@@ -300,7 +300,7 @@ void pinhole_kernel_matches_generic_path() {
   T.linear() = (Eigen::AngleAxis<Scalar>(Scalar(angle(rng)), Vector3<Scalar>::UnitX()) *
                 Eigen::AngleAxis<Scalar>(Scalar(angle(rng)), Vector3<Scalar>::UnitY()) *
                 Eigen::AngleAxis<Scalar>(Scalar(angle(rng)), Vector3<Scalar>::UnitZ())).toRotationMatrix();
-  T.translation() = Vector3<Scalar>(Scalar(shift(rng)), Scalar(shift(rng)), Scalar(shift(rng)));
+  T.translation() = test::draw3<Scalar>([&] { return shift(rng); });
   // A distorted source has one ray per pixel (the kernel's non-separable rows), a pinhole one a ray
   // per row and column.
   const bool distorted = *rc::gen::arbitrary<bool>();
@@ -385,7 +385,10 @@ RC_GTEST_PROP(Voting, SeparatedClustersAgreeWithViewOrder, ()) {
   std::mt19937 rng(*rc::gen::arbitrary<std::uint32_t>());
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::vector<double> d;
-  for (int k = 0; k < n; ++k) d.push_back(0.3 + 0.01 * int(unit(rng) * 3) + unit(rng) * delta * 0.45);
+  for (int k = 0; k < n; ++k) {
+    const double level = unit(rng), jitter = unit(rng);  // one draw per declarator: a fixed order
+    d.push_back(0.3 + 0.01 * int(level * 3) + jitter * delta * 0.45);
+  }
   std::vector<const double*> ptrs;
   for (const double& x : d) ptrs.push_back(&x);
   double out;

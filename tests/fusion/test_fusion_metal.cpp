@@ -13,6 +13,7 @@
 #include "binpick/sim/scene.hpp"
 #include "binpick/sim/stereo_sensor.hpp"
 #include "sim_instances.hpp"  // the simulated cell's templates, compiled once
+#include "test_support.hpp"
 
 using namespace binpick;
 
@@ -63,8 +64,10 @@ TEST(FusionRegistration, MetalDepthViewsAreRegisteredToAboutAMillimetre) {
       truth.push_back(T);
       Isometry3<float> error = Isometry3<float>::Identity();
       if (i > 0) {  // late kinematics: 3 mm and 1 deg in random directions
-        error.linear() = Eigen::AngleAxisf(float(M_PI / 180), Eigen::Vector3f(u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
-        error.translation() = Eigen::Vector3f(u(rng), u(rng), u(rng)).normalized() * 0.003f;
+        const Eigen::Vector3f axis = test::draw3<float>([&] { return u(rng); });
+        const Eigen::Vector3f dir = test::draw3<float>([&] { return u(rng); });
+        error.linear() = Eigen::AngleAxisf(float(M_PI / 180), axis.normalized()).toRotationMatrix();
+        error.translation() = dir.normalized() * 0.003f;
       }
       prior.push_back(T * error);
     }

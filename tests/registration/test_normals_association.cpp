@@ -69,7 +69,10 @@ void check_knn_normals_on_plane() {
   const int n = *rc::gen::inRange(20, 300);
   std::mt19937 rng(*rc::gen::arbitrary<unsigned>());  // bulk positions: shrinking them adds nothing
   std::uniform_real_distribution<double> in(-0.1, 0.1);
-  for (int i = 0; i < n; ++i) pts.push_back((origin + in(rng) * a + in(rng) * b).cast<Scalar>());
+  for (int i = 0; i < n; ++i) {
+    const double sb = in(rng), sa = in(rng);  // one draw per declarator: the same points on every compiler
+    pts.push_back((origin + sa * a + sb * b).cast<Scalar>());
+  }
   pts.push_back(Vector3<Scalar>::Constant(std::numeric_limits<Scalar>::quiet_NaN()));
   KnnNormalSettings<Scalar> s;
   s.viewpoint = (origin + 0.5 * n_true).cast<Scalar>();

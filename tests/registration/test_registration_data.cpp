@@ -173,8 +173,8 @@ TEST(RealData, RedwoodPerturbedPosesRegisterBack) {
     const Eigen::Isometry3d T_0_i = frames[0].T_world_camera.inverse() * frames[i].T_world_camera;
     for (int trial = 0; trial < 3; ++trial) {
       // 2 cm and 2° in random directions.
-      const Eigen::Vector3d axis = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
-      const Eigen::Vector3d dir = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+      const Eigen::Vector3d axis = test::draw3<double>([&] { return unit(rng); }).normalized();
+      const Eigen::Vector3d dir = test::draw3<double>([&] { return unit(rng); }).normalized();
       Eigen::Isometry3d P = Eigen::Isometry3d::Identity();
       P.linear() = Eigen::AngleAxisd(2 * kDeg, axis).toRotationMatrix();
       P.translation() = 0.02 * dir;

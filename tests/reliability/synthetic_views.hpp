@@ -34,8 +34,12 @@ SyntheticViews<Scalar> make_synthetic_views(int n, std::uint32_t seed) {
   };
   struct Ball { Eigen::Vector3d c; double r; };
   std::vector<Ball> balls;
-  for (int i = 0; i < 6; ++i)
-    balls.push_back({Eigen::Vector3d(-0.12 + 0.24 * unit(rng), -0.08 + 0.16 * unit(rng), 0.02), 0.02 + 0.02 * unit(rng)});
+  for (int i = 0; i < 6; ++i) {
+    // One draw per declarator (a call's arguments are evaluated in no fixed order): the same balls
+    // with every compiler.
+    const double by = unit(rng), bx = unit(rng), br = unit(rng);
+    balls.push_back({Eigen::Vector3d(-0.12 + 0.24 * bx, -0.08 + 0.16 * by, 0.02), 0.02 + 0.02 * br});
+  }
   const Eigen::Vector3d floor_n = Eigen::Vector3d(0.05, -0.03, 1).normalized();
   const int w = s.camera.width(), h = s.camera.height();
   for (int k = 0; k < n; ++k) {

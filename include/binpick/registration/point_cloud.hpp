@@ -108,7 +108,7 @@ class PixelBackprojector<Scalar, PinholeCamera<Scalar>> {
         const Scalar d = DepthImageView<Scalar>::decode(raw[u], scale);
         const Scalar px = rx[u] * d, py = ry * d;
         // operator()'s tests: a measurement (decode() leaves it finite) and finite products.
-        const bool ok = (d > Scalar(0)) & (std::abs(px) <= big) & (std::abs(py) <= big);
+        const bool ok = (int(d > Scalar(0)) & int(std::abs(px) <= big) & int(std::abs(py) <= big)) != 0;
         x[j] = ok ? px : Scalar(0);
         y[j] = ok ? py : Scalar(0);
         z[j] = ok ? d : Scalar(0);

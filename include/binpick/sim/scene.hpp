@@ -84,7 +84,10 @@ class Scene {
       const Scalar tilt = Scalar(rng.uniform(0, 1)) * settings.max_initial_tilt;
       const Mat3 R = Eigen::AngleAxis<Scalar>(tilt, Vec3(std::cos(tilt_dir), std::sin(tilt_dir), 0)).toRotationMatrix() *
                      Eigen::AngleAxis<Scalar>(yaw, Vec3::UnitZ()).toRotationMatrix() * rest;
-      const Vector2<Scalar> xy(Scalar(rng.normal()) * settings.pile_spread, Scalar(rng.normal()) * settings.pile_spread);
+      // One draw per declarator: the order of a call's arguments is unspecified (GCC and Clang
+      // differ), and a seed must give the same pile on every compiler.
+      const Scalar ny = Scalar(rng.normal()), nx = Scalar(rng.normal());
+      const Vector2<Scalar> xy(nx * settings.pile_spread, ny * settings.pile_spread);
       scene.add_part(settings.part_type, R, xy);
     }
     return scene;
