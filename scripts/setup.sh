@@ -3,7 +3,7 @@
 # Idempotent and quiet when everything is already there. Run as root (or with sudo available).
 set -euo pipefail
 pkgs=(cmake g++ make pkg-config ccache libeigen3-dev libflann-dev liblz4-dev libgtest-dev
-      librapidcheck-dev libopencv-dev libstb-dev clang libclang-rt-14-dev)
+      librapidcheck-dev libopencv-dev libstb-dev clang libclang-rt-14-dev libomp-14-dev)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
