@@ -297,9 +297,10 @@ void pinhole_kernel_matches_generic_path() {
   }
   const DepthImageView<Scalar> view = millimetres ? DepthImageView<Scalar>(mm.data(), w, h, 0, Scalar(0.001)) : metres.view();
   Isometry3<Scalar> T = Isometry3<Scalar>::Identity();
-  T.linear() = (Eigen::AngleAxis<Scalar>(Scalar(angle(rng)), Vector3<Scalar>::UnitX()) *
-                Eigen::AngleAxis<Scalar>(Scalar(angle(rng)), Vector3<Scalar>::UnitY()) *
-                Eigen::AngleAxis<Scalar>(Scalar(angle(rng)), Vector3<Scalar>::UnitZ())).toRotationMatrix();
+  const Eigen::Matrix<Scalar, 3, 1> turn = test::draw3<Scalar>([&] { return angle(rng); });  // a fixed order
+  T.linear() = (Eigen::AngleAxis<Scalar>(turn.x(), Vector3<Scalar>::UnitX()) *
+                Eigen::AngleAxis<Scalar>(turn.y(), Vector3<Scalar>::UnitY()) *
+                Eigen::AngleAxis<Scalar>(turn.z(), Vector3<Scalar>::UnitZ())).toRotationMatrix();
   T.translation() = test::draw3<Scalar>([&] { return shift(rng); });
   // A distorted source has one ray per pixel (the kernel's non-separable rows), a pinhole one a ray
   // per row and column.
