@@ -25,7 +25,53 @@ struct Options {
 /// The first line of every run: how this process gets its memory pages, which moves the figures of
 /// large clouds a lot on some hosts (page faults in fresh memory, TLB misses in kept memory). "thp" is
 /// the kernel's transparent huge page mode; "glibc_tunables" the environment's GLIBC_TUNABLES
-/// (glibc.malloc.hugetlb=1 makes malloc ask for huge pages in the "madvise" mode; README).
+/// (glibc.malloc.hugetlb=1 makes malloc ask for huge pages in the "madvise" mode; README). "cpu" and
+/// "copy_gb_s" (memcpy of 64 MB into touched memory, median of 5) say what kind of host it is: the
+/// full-image kernels are memory bound, and hosts differ by 2x and more there (a 640 x 480 projective
+/// ICP took 5.3 ms on one 2-core host and 10.0 ms on another that copied 5.7-8 GB/s).
+inline double copy_rate_gb_s() {
+  const std::size_t bytes = std::size_t(64) << 20;
+  std::vector<char> a(bytes, 1), b(bytes, 0);
+  std::vector<double> rate;
+  for (int i = 0; i < 5; ++i) {
+    a[std::size_t(i)] = char(i);
+    const auto t0 = std::chrono::steady_clock::now();
+    std::memcpy(b.data(), a.data(), bytes);
+    const auto t1 = std::chrono::steady_clock::now();
+    rate.push_back(double(bytes) / 1e9 / std::chrono::duration<double>(t1 - t0).count());
+  }
+  std::sort(rate.begin(), rate.end());
+  volatile char sink = b[bytes / 2];  // the copies must happen
+  (void)sink;
+  return rate[rate.size() / 2];
+}
+
+/// `s` with the characters that would end or break a JSON string replaced by '_'.
+inline std::string json_safe(std::string s) {
+  for (char& ch : s)
+    if (ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20) ch = '_';
+  return s;
+}
+
+/// The "model name" line of /proc/cpuinfo ("unknown" elsewhere), made safe for a JSON string (json_safe).
+inline std::string cpu_model() {
+  std::string model = "unknown";
+  if (std::FILE* f = std::fopen("/proc/cpuinfo", "r")) {
+    char line[512];
+    while (std::fgets(line, sizeof line, f)) {
+      const std::string l(line);
+      if (l.compare(0, 10, "model name") != 0) continue;
+      const std::size_t c = l.find(':');
+      if (c != std::string::npos) model = l.substr(c + 1);
+      break;
+    }
+    std::fclose(f);
+  }
+  while (!model.empty() && (model.back() == '\n' || model.back() == ' ')) model.pop_back();
+  while (!model.empty() && model.front() == ' ') model.erase(model.begin());
+  return json_safe(model);
+}
+
 inline void print_host() {
   std::string thp = "unknown";
   if (std::FILE* f = std::fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r")) {
@@ -37,10 +83,9 @@ inline void print_host() {
     if (a != std::string::npos && b != std::string::npos && b > a) thp = line.substr(a + 1, b - a - 1);
   }
   const char* tunables = std::getenv("GLIBC_TUNABLES");
-  std::string t = tunables ? tunables : "";
-  for (char& ch : t)
-    if (ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20) ch = '_';  // stays valid JSON
-  std::printf("{\"name\": \"host\", \"thp\": \"%s\", \"glibc_tunables\": \"%s\"}\n", thp.c_str(), t.c_str());
+  const std::string t = json_safe(tunables ? tunables : "");
+  std::printf("{\"name\": \"host\", \"cpu\": \"%s\", \"copy_gb_s\": %.2f, \"thp\": \"%s\", \"glibc_tunables\": \"%s\"}\n",
+              cpu_model().c_str(), copy_rate_gb_s(), thp.c_str(), t.c_str());
   std::fflush(stdout);
 }
 
