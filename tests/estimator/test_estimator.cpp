@@ -468,7 +468,18 @@ TEST(GraspModel, JudgesTolerancesAndCollisions) {
   Isometry3f off = T;
   off.translation() += Eigen::Vector3f(0.006f, 0, 0);
   off.translation().z() += 0.006f;
-  EXPECT_EQ(evaluate_pick(scene, type, off, model.gripper, g.opening).status, PickStatus::no_matching_grasp);
+  const auto missed = evaluate_pick(scene, type, off, model.gripper, g.opening);
+  EXPECT_EQ(missed.status, PickStatus::no_matching_grasp);
+  // The offset to the nearest true grasp is the displacement (every registered grasp of the coupler
+  // shares its grasp point), and its norm the nearest position error.
+  EXPECT_LT((missed.nearest_offset - Eigen::Vector3f(0.006f, 0, 0.006f)).norm(), 1e-5f);
+  EXPECT_NEAR(missed.nearest_offset.norm(), missed.nearest_position_error, 1e-6f);
+  EXPECT_LT(ok.nearest_offset.norm(), 1e-5f);
+  Isometry3f near = T;  // 2 mm along −y: within the position tolerance, offset as displaced
+  near.translation().y() -= 0.002f;
+  const auto held = evaluate_pick(scene, type, near, model.gripper, g.opening);
+  EXPECT_EQ(held.status, PickStatus::success) << to_string(held.status);
+  EXPECT_LT((held.nearest_offset - Eigen::Vector3f(0, -0.002f, 0)).norm(), 1e-5f);
   Isometry3f tilted = T;
   tilted.linear() = Eigen::AngleAxisf(0.4f, Eigen::Vector3f::UnitX()).toRotationMatrix() * T.linear();
   EXPECT_EQ(evaluate_pick(scene, type, tilted, model.gripper, g.opening).status, PickStatus::no_matching_grasp);

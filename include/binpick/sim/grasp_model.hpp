@@ -60,6 +60,10 @@ struct PickOutcome {
   Scalar nearest_position_error = std::numeric_limits<Scalar>::infinity();  ///< [m]
   Scalar nearest_angle_error = std::numeric_limits<Scalar>::infinity();     ///< approach [rad]
   Scalar nearest_closing_error = std::numeric_limits<Scalar>::infinity();   ///< closing (two-finger) [rad]
+  /// The estimated grasp point minus the nearest true grasp point, base frame [m] (zero when no part
+  /// of the type lies near; nearest_position_error is its norm otherwise). Averaged over many picks it
+  /// shows an estimator's systematic error, e.g. a sensor's edge fattening pulling fits to one side.
+  Vector3<Scalar> nearest_offset = Vector3<Scalar>::Zero();
   bool success() const { return status == PickStatus::success; }
 };
 
@@ -106,6 +110,7 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
           out.nearest_position_error = dp;
           out.nearest_angle_error = da;
           out.nearest_closing_error = dx;
+          out.nearest_offset = T_base_grasp.translation() - T_true.translation();
         }
         if (dp > settings.position_tolerance || da > settings.angle_tolerance || dx > settings.angle_tolerance) continue;
         const Scalar cost = dp / settings.position_tolerance + da / settings.angle_tolerance;
