@@ -44,17 +44,7 @@ struct Options {
 struct TypeResult {
   int piles = 0, recognized = 0, first_tried = 0, first_held = 0;
   simcell::GripLedger grips;
-  std::vector<double> offset[3];  // per axis of the reference camera [mm] (see the file comment)
 };
-
-/// The median of `v` (0 when empty).
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  if (v.size() % 2 == 1) return *mid;
-  return 0.5 * (*mid + *std::max_element(v.begin(), mid));
-}
 
 int usage(const char* argv0) {
   std::fprintf(stderr,
@@ -141,10 +131,7 @@ TypeResult evaluate(sim::PartType type, const Options& o) {
       const auto judged = sim::evaluate_pick(scene, type, Isometry3<S>(T_base_reference * obj.T_camera_grasp), obj.gripper,
                                              es.gripper.approach_opening, judge);
       out.grips.record(judged, judge);
-      if (judged.nearest_position_error <= 2 * judge.position_tolerance) {
-        const Vector3<S> o = T_base_reference.linear().transpose() * judged.nearest_offset;
-        for (int a = 0; a < 3; ++a) out.offset[a].push_back(1000.0 * double(o[a]));
-      }
+      out.grips.record_offset(judged, judge, T_base_reference);
       if (first) {
         ++out.first_tried;
         out.first_held += judged.success();
@@ -213,15 +200,15 @@ int main(int argc, char** argv) {
           tools::json_number(g.tried() ? double(g.held()) / g.tried() : 0.0).c_str(), r.first_tried, r.first_held,
           g.nothing_recognized, g.of(sim::PickStatus::no_matching_grasp), g.missed[L::position], g.missed[L::approach],
           g.missed[L::closing], g.of(sim::PickStatus::part_collision), g.of(sim::PickStatus::bin_collision),
-          r.offset[0].size(), tools::json_number(median(r.offset[0])).c_str(), tools::json_number(median(r.offset[1])).c_str(),
-          tools::json_number(median(r.offset[2])).c_str());
+          g.offset_mm[0].size(), tools::json_number(g.offset_median_mm(0)).c_str(), tools::json_number(g.offset_median_mm(1)).c_str(),
+          tools::json_number(g.offset_median_mm(2)).c_str());
     } else {
       char missed[48], hit[32], first[32];
       std::snprintf(missed, sizeof missed, "%d/%d/%d", g.missed[L::position], g.missed[L::approach], g.missed[L::closing]);
       std::snprintf(hit, sizeof hit, "%d/%d", g.of(sim::PickStatus::part_collision), g.of(sim::PickStatus::bin_collision));
       std::snprintf(first, sizeof first, "%d/%d", r.first_held, r.first_tried);
       char offset[48];
-      std::snprintf(offset, sizeof offset, "%+.2f/%+.2f/%+.2f", median(r.offset[0]), median(r.offset[1]), median(r.offset[2]));
+      std::snprintf(offset, sizeof offset, "%+.2f/%+.2f/%+.2f", g.offset_median_mm(0), g.offset_median_mm(1), g.offset_median_mm(2));
       std::printf("%-15s %6d %10d %7d %6d %6s %16s %14s %14s %22s\n", sim::part_type_name(type), r.piles, r.recognized,
                   g.tried(), g.held(), percent(g.held(), g.tried()).c_str(), first, missed, hit, offset);
     }

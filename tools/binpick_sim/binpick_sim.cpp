@@ -215,7 +215,19 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
     }
     rr.cycle_s.push_back(r.takt.cycle_time);
     if (r.status == cycle::CycleStatus::nothing_recognized) ++rr.grips.nothing_recognized;
-    if (picked || r.status == cycle::CycleStatus::grasp_failed) rr.grips.record(cell.gripper->last_outcome(), cell.gripper->settings());
+    const bool grasped = picked || r.status == cycle::CycleStatus::grasp_failed;
+    if (grasped) rr.grips.record(cell.gripper->last_outcome(), cell.gripper->settings());
+    // The grip's offset from the nearest true grasp in the reference view's camera frame (the view the
+    // grasp was estimated in); empty when there was no grip or no true grasp nearby.
+    char offset[64] = ",,";
+    if (grasped && !r.T_base_captures_read.empty()) {
+      const auto& oc = cell.gripper->last_outcome();
+      const std::size_t before = rr.grips.offset_mm[0].size();
+      rr.grips.record_offset(oc, cell.gripper->settings(), r.T_base_captures_read.front());
+      if (rr.grips.offset_mm[0].size() > before)
+        std::snprintf(offset, sizeof offset, "%.2f,%.2f,%.2f", rr.grips.offset_mm[0].back(), rr.grips.offset_mm[1].back(),
+                      rr.grips.offset_mm[2].back());
+    }
     // Why a cycle did not pick: the simulated world's judgement of a failed grip, else the status.
     const char* cause = r.status == cycle::CycleStatus::grasp_failed ? sim::to_string(cell.gripper->last_status())
                         : picked                                      ? "-"
@@ -232,18 +244,17 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
                     double(matched ? oc.closing_error : oc.nearest_closing_error) * 180 / M_PI);
       diag = d;
     }
-    const bool grasped = r.status == cycle::CycleStatus::picked || r.status == cycle::CycleStatus::grasp_failed;
     char tilt[40] = ",";
     if (grasped)
       std::snprintf(tilt, sizeof tilt, "%.1f,%d", std::acos(std::clamp(-double(r.T_base_grasp.linear()(2, 2)), -1.0, 1.0)) * 180 / M_PI,
                     int(r.grasp_clear));
     char buf[800];
-    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d%s,%s,%s\n",
+    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d%s,%s,%s,%s\n",
                   cycle::to_string(strategy), sim::part_type_name(type), run, r.index, cycle::to_string(r.status), cause, int(r.placed),
                   int(r.search), r.views, r.recognized, cycle::to_string(r.path_source),
                   plan_status_id(r.next_plan_status), r.takt.cycle_time, r.takt.detour, r.takt.robot_wait,
                   r.takt.sensing_in_takt(), r.takt.processing, r.fusion_ms, r.estimation_ms, r.planning_ms, cell.remaining(),
-                  diag.c_str(), tilt, fired ? simcell::to_string(arm.fault) : "-");
+                  diag.c_str(), tilt, fired ? simcell::to_string(arm.fault) : "-", offset);
     rr.csv_rows.push_back(buf);
     // Pictures of the first cycle that placed a part (processing in parallel with the drop), else of
     // the last cycle.
@@ -360,7 +371,8 @@ int main(int argc, char** argv) {
   if (!o.csv.empty()) {
     std::ofstream f(o.csv);
     f << "strategy,type,run,cycle,status,cause,placed,search,views,recognized,path_source,next_plan_status,cycle_time_s,detour_s,"
-         "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining,grasp_error_mm,approach_error_deg,closing_error_deg,grasp_tilt_deg,grasp_clear,fault\n";
+         "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining,grasp_error_mm,approach_error_deg,closing_error_deg,grasp_tilt_deg,grasp_clear,fault,"
+         "grasp_offset_x_mm,grasp_offset_y_mm,grasp_offset_z_mm\n";
     for (const auto& r : results)
       for (const auto& row : r.csv_rows) f << row;
   }
@@ -445,6 +457,12 @@ int main(int argc, char** argv) {
                       r.grips.missed[simcell::GripLedger::closing]);
         return std::string(b);
       });
+      line("Grasp offset x/y/z [mm]", [](const Row& r) {  // median, reference camera frame
+        char b[64];
+        std::snprintf(b, sizeof b, "%+.2f/%+.2f/%+.2f", r.grips.offset_median_mm(0), r.grips.offset_median_mm(1),
+                      r.grips.offset_median_mm(2));
+        return std::string(b);
+      });
       line("Hit parts / bin", [](const Row& r) {
         char b[64];
         std::snprintf(b, sizeof b, "%d / %d", r.grips.of(sim::PickStatus::part_collision), r.grips.of(sim::PickStatus::bin_collision));
@@ -480,7 +498,10 @@ int main(int argc, char** argv) {
          << ", \"missed_closing\": " << r.grips.missed[simcell::GripLedger::closing]
          << ", \"part_collision\": " << r.grips.of(sim::PickStatus::part_collision)
          << ", \"bin_collision\": " << r.grips.of(sim::PickStatus::bin_collision) << "}, \"nothing_recognized_cycles\": "
-         << r.grips.nothing_recognized << "}";
+         << r.grips.nothing_recognized << ", \"offset_grips\": " << r.grips.offset_mm[0].size()
+         << ", \"offset_x_mm\": " << json_number(r.grips.offset_median_mm(0))
+         << ", \"offset_y_mm\": " << json_number(r.grips.offset_median_mm(1))
+         << ", \"offset_z_mm\": " << json_number(r.grips.offset_median_mm(2)) << "}";
     }
     js << "}, \"sensing_in_takt_s\": " << json_number(mean(takt)) << ", \"processing_ms\": " << json_number(mean(proc))
        << ", \"estimation_ms\": " << json_number(mean(est)) << ", \"processing_phase_ms\": " << json_number(mean(phase))

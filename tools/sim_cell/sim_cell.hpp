@@ -43,13 +43,16 @@ inline std::vector<sim::PartType> part_types(const std::string& list) {
 
 /// Grips by the simulated world's verdict (sim/grasp_model.hpp): what limits a complete rate. A grip
 /// that matched no true grasp missed one or more of the tolerances, counted each; the nearest true
-/// grasp's errors decide which.
+/// grasp's errors decide which. With record_offset, also the offsets of the grasp points from their
+/// nearest true ones in the camera frame of the view the pose was estimated in (x along the image
+/// rows, y down the columns, z away from the camera): their median is the estimator's systematic error.
 struct GripLedger {
   static constexpr int kVerdicts = 4;  // the values of sim::PickStatus
   enum Miss { position, approach, closing, kMisses };
   int verdicts[kVerdicts] = {};  // grips per sim::PickStatus (success: held)
   int missed[kMisses] = {};
   int nothing_recognized = 0;  // cycles without a grasp to try (the next one searches)
+  std::vector<double> offset_mm[3];  // per camera axis, grips within 2 x the position tolerance
   int of(sim::PickStatus s) const { return verdicts[int(s)]; }
   int held() const { return of(sim::PickStatus::success); }
   int tried() const { return std::accumulate(std::begin(verdicts), std::end(verdicts), 0); }
@@ -62,7 +65,25 @@ struct GripLedger {
     missed[approach] += !(oc.nearest_angle_error <= tol.angle_tolerance);
     missed[closing] += !(oc.nearest_closing_error <= tol.angle_tolerance);
   }
+  /// The offset of one grip (`T_base_camera`: the view its pose was estimated in), when within twice
+  /// the position tolerance of a true grasp (a gross misrecognition says nothing about a bias).
+  template <typename Scalar>
+  void record_offset(const sim::PickOutcome<Scalar>& oc, const sim::GraspModelSettings<Scalar>& tol,
+                     const Isometry3<Scalar>& T_base_camera) {
+    if (!(oc.nearest_position_error <= 2 * tol.position_tolerance)) return;
+    const Vector3<Scalar> o = T_base_camera.linear().transpose() * oc.nearest_offset;
+    for (int a = 0; a < 3; ++a) offset_mm[a].push_back(1e3 * double(o[a]));
+  }
+  /// Median offset along camera axis a [mm], 0 without offsets.
+  double offset_median_mm(int a) const {
+    std::vector<double> v = offset_mm[a];
+    if (v.empty()) return 0;
+    const auto mid = v.begin() + std::ptrdiff_t(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    return v.size() % 2 == 1 ? *mid : 0.5 * (*mid + *std::max_element(v.begin(), mid));
+  }
   void merge(const GripLedger& o) {
+    for (int a = 0; a < 3; ++a) offset_mm[a].insert(offset_mm[a].end(), o.offset_mm[a].begin(), o.offset_mm[a].end());
     for (int k = 0; k < kVerdicts; ++k) verdicts[k] += o.verdicts[k];
     for (int k = 0; k < kMisses; ++k) missed[k] += o.missed[k];
     nothing_recognized += o.nothing_recognized;
