@@ -118,6 +118,48 @@ PickOutcome<float> judge_grasp(const Scene<float>& scene, PartType type, const R
   return evaluate_pick(scene, type, Isometry3f(kReference * o.T_camera_grasp), o.gripper, g.opening);
 }
 
+// A coupler clamped to the +x wall, seen on clean depth from above a point 2 cm inside the bin.
+struct CouplerAtWall {
+  const PartType type = PartType::pencil_coupler;
+  Scene<float> scene;
+  Isometry3f T_base_camera = Isometry3f::Identity();
+  const StereoSensor<float> sensor{sensor_settings(false)};
+  StereoFrame<float> frame;
+  CouplerAtWall() {
+    scene.add_part(type, scene.model(type).rest_orientations[0], Vector2<float>(0.25f, 0.0f));
+    const Eigen::Vector3f at = scene.parts()[0].T_base_part.translation();
+    T_base_camera = look_at(Eigen::Vector3f(at.x() - 0.02f, at.y(), 0.3f), at);
+    frame = sensor.render(scene, T_base_camera, 0);
+  }
+  const Camera& camera() const { return sensor.camera(); }
+  /// Removes the wall's measurements from `depth` except at the pixels `keep(u, v)` names; returns
+  /// how many it removed.
+  template <typename Keep>
+  int remove_wall(DepthImage<float>& depth, Keep keep) const {
+    int removed = 0;
+    for (int v = 0; v < depth.height(); ++v)
+      for (int u = 0; u < depth.width(); ++u) {
+        float& z = depth.at(u, v);
+        if (!(z > 0) || keep(u, v)) continue;
+        const Eigen::Vector3f p = T_base_camera * camera().backproject(float(u), float(v), z);
+        if (p.x() > scene.bin().length / 2 - 0.002f) {
+          z = 0;
+          ++removed;
+        }
+      }
+    return removed;
+  }
+  /// Samples (1 mm apart) of the gripper at o's grasp that stand inside the wall.
+  int fingers_in_wall(const cycle::RecognizedObject<float>& o, const GripperGeometry<float>& gripper) const {
+    int n = 0;
+    for (const auto& q : sim::detail::gripper_samples(gripper, o.gripper, gripper.approach_opening, 0.001f)) {
+      const Eigen::Vector3f p = T_base_camera * (o.T_camera_grasp * q);
+      n += p.x() >= scene.bin().length / 2 && p.z() <= scene.bin().wall_height;
+    }
+    return n;
+  }
+};
+
 }  // namespace
 
 // Clean depth: the top parts are found within 2 mm / 2°, and every confident object is right.
@@ -399,8 +441,10 @@ TEST(ReferenceEstimator, RejectsBadInput) {
   ReferenceEstimatorSettings<float> bad;
   bad.support_distance = 0;
   EXPECT_THROW(Estimator(make_part<float>(PartType::mirror_nut), bad), std::invalid_argument);
-  for (int k = 0; k < 7; ++k) {
+  for (int k = 0; k < 9; ++k) {
     ReferenceEstimatorSettings<float> b;
+    if (k == 7) b.hole_reach = -0.001f;
+    if (k == 8) b.hole_reach = std::numeric_limits<float>::infinity();
     if (k == 5) b.min_part_cells = 0;
     if (k == 6) b.min_part_cells = std::numeric_limits<float>::quiet_NaN();
     if (k == 0) b.own_surface_margin = std::numeric_limits<float>::quiet_NaN();
@@ -568,34 +612,56 @@ TEST(ReferenceEstimator, GraspClearanceOnMetalDepthSeparatesGoodFromBlockedGrasp
   EXPECT_GT(clear_rate, blocked_rate) << clear_ok << "/" << clear << " vs " << blocked_ok << "/" << blocked;
 }
 
+// A coupler against a wall that shows only specks of depth (1 pixel in 9 measured, as shiny metal
+// does): read as free space, the holes between the specks let the gripper check pass a grasp whose
+// fingers stand in the wall; with hole_reach the specks around a hole stand in for it and the check
+// turns the grasp away from the wall, as it does on the whole wall.
+TEST(ReferenceEstimator, GripperCheckDoesNotReachIntoHoles) {
+  const CouplerAtWall cell;
+  DepthImage<float> specks = cell.frame.depth;
+  ASSERT_GT(cell.remove_wall(specks, [](int u, int v) { return u % 3 == 0 && v % 3 == 0; }), 1000);  // in view
+  // Gripper samples of the clear grasp inside the wall (the grasp's fingers also meet the floor: see
+  // the next test), -1 when the grasp is blocked.
+  const auto fingers_in_wall = [&](const DepthImage<float>& depth, float hole_reach) {
+    ReferenceEstimatorSettings<float> es;
+    es.gripper.approach_opening = widest_opening(cell.scene.model(cell.type));
+    es.hole_reach = hole_reach;
+    Estimator est(cell.scene.model(cell.type), es);
+    auto in = input_of(depth, cell.camera());
+    in.up_camera = cell.T_base_camera.linear().transpose() * Eigen::Vector3f::UnitZ();
+    const auto r = est.estimate(in);
+    EXPECT_EQ(r.objects.size(), 1u);
+    if (r.objects.empty() || !r.objects[0].grasp_clear) return -1;
+    return cell.fingers_in_wall(r.objects[0], es.gripper);
+  };
+  const float reach = ReferenceEstimatorSettings<float>().hole_reach;
+  ASSERT_GT(reach, 0.f);
+  EXPECT_EQ(fingers_in_wall(cell.frame.depth, reach), 0) << "whole wall";
+  const int free_space = fingers_in_wall(specks, 0.f);
+  EXPECT_GT(free_space, 50) << "holes read as free space";
+  // The default bridges a pixel around each sample here (1.2 mm): a finger edge still grazes the wall
+  // (measured: 9 samples at 1 mm spacing, against 108); 2 mm bridges two and none touches.
+  const int bridged = fingers_in_wall(specks, reach);
+  EXPECT_GE(bridged, 0) << "blocked";
+  EXPECT_LT(bridged, free_space / 10) << "holes bridged by hole_reach";
+  EXPECT_EQ(fingers_in_wall(specks, 0.002f), 0);
+}
+
 // A part against a wall, the wall cropped out of the depth the estimator recognizes on: without the
 // uncropped depth (EstimatorInput::obstacles) the gripper check cannot see the wall and closes the jaw
 // into it; with it, it turns the grasp about the part's axis until no finger stands in the wall. (That
 // tilted grasp still meets the floor: floor within own_surface_margin of the part's underside counts
 // as the part, the known price of that margin.)
 TEST(ReferenceEstimator, GripperCheckSeesWallsInTheObstacleDepth) {
-  const PartType type = PartType::pencil_coupler;
-  Scene<float> scene;
+  const CouplerAtWall cell;
+  const PartType type = cell.type;
+  const Scene<float>& scene = cell.scene;
   const auto& model = scene.model(type);
-  scene.add_part(type, model.rest_orientations[0], Vector2<float>(0.25f, 0.0f));  // clamped to the +x wall
-  const Eigen::Vector3f at = scene.parts()[0].T_base_part.translation();
-  const Isometry3f T_base_camera = look_at(Eigen::Vector3f(at.x() - 0.02f, at.y(), 0.3f), at);
-  const StereoSensor<float> sensor(sensor_settings(false));
-  const auto frame = sensor.render(scene, T_base_camera, 0);
-  const Camera& cam = sensor.camera();
+  const Isometry3f& T_base_camera = cell.T_base_camera;
+  const auto& frame = cell.frame;
+  const Camera& cam = cell.camera();
   DepthImage<float> cropped = frame.depth;
-  int removed = 0;
-  for (int v = 0; v < cropped.height(); ++v)
-    for (int u = 0; u < cropped.width(); ++u) {
-      float& z = cropped.at(u, v);
-      if (!(z > 0)) continue;
-      const Eigen::Vector3f p = T_base_camera * cam.backproject(float(u), float(v), z);
-      if (p.x() > scene.bin().length / 2 - 0.002f) {
-        z = 0;
-        ++removed;
-      }
-    }
-  ASSERT_GT(removed, 1000);  // the wall was in view
+  ASSERT_GT(cell.remove_wall(cropped, [](int, int) { return false; }), 1000);  // the wall was in view
   ReferenceEstimatorSettings<float> es;
   es.gripper.approach_opening = widest_opening(model);
   Estimator est(model, es);
@@ -612,16 +678,8 @@ TEST(ReferenceEstimator, GripperCheckSeesWallsInTheObstacleDepth) {
   EXPECT_TRUE(blind.objects[0].grasp_clear);
   EXPECT_EQ(judge(blind.objects[0]), PickStatus::bin_collision);
   EXPECT_TRUE(seeing.objects[0].grasp_clear);
-  const auto fingers_in_wall = [&](const cycle::RecognizedObject<float>& o) {
-    int n = 0;
-    for (const auto& q : sim::detail::gripper_samples(es.gripper, o.gripper, es.gripper.approach_opening, 0.001f)) {
-      const Eigen::Vector3f p = T_base_camera * (o.T_camera_grasp * q);
-      n += p.x() >= scene.bin().length / 2 && p.z() <= scene.bin().wall_height;
-    }
-    return n;
-  };
-  EXPECT_GT(fingers_in_wall(blind.objects[0]), 10);
-  EXPECT_EQ(fingers_in_wall(seeing.objects[0]), 0);
+  EXPECT_GT(cell.fingers_in_wall(blind.objects[0], es.gripper), 10);
+  EXPECT_EQ(cell.fingers_in_wall(seeing.objects[0], es.gripper), 0);
   DepthImage<float> small(10, 10);
   in.obstacles = small.view();
   EXPECT_THROW(est.estimate(in), std::invalid_argument);

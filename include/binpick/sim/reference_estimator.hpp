@@ -38,8 +38,9 @@
 ///     (detail::gripper_samples, opened to the larger of the grasp's opening and
 ///     gripper.approach_opening) stays in measured free space: fewer than min_colliding_samples of
 ///     its samples lie more than collision_margin behind measured points that are not the part's own
-///     surface (own_surface_margin); the one nearest to straight down (the input's up direction; the
-///     line of sight when unknown), else (flagged unreachable, grasp_clear false) the best aligned one.
+///     surface (own_surface_margin; over a hole, the nearest surface within hole_reach); the one
+///     nearest to straight down (the input's up direction; the line of sight when unknown), else
+///     (flagged unreachable, grasp_clear false) the best aligned one.
 
 #include <algorithm>
 #include <chrono>
@@ -134,6 +135,15 @@ struct ReferenceEstimatorSettings {
   /// either (exempting only faces turned toward the camera cost more picks in the cell than it saved).
   Scalar own_surface_margin = Scalar(0.004);
   int min_colliding_samples = 3;               ///< a grasp is blocked from this many colliding samples (one may be noise)
+  /// [m] A gripper sample over a pixel without a measurement is checked against the nearest measured
+  /// surface within this distance of it (the window's smallest depth) instead of passing as free space:
+  /// a shiny neighbour shows only specks of depth, and fingers went into the holes between them (0 =
+  /// holes are free space). Measured with 0.0015 against 0 on static piles (binpick_grasp_eval, 20
+  /// piles, 3 views): at 1280 × 1024 gripper hits on neighbours fell from 34 to 22 (pencil coupler)
+  /// and 39 to 20 (mirror nut) and first picks held rose from 16 to 18 and 14 to 19 of 20; at 640 × 512
+  /// hits fell from 16 to 12 (coupler), 14 to 9 (LAN connector) and 6 to 4 (circle nut), first picks
+  /// held 85 -> 89 of 100 over the five types.
+  Scalar hole_reach = Scalar(0.0015);
   int symmetry_steps = 36;                     ///< a continuous symmetry offers grasps every 2π / this [-]
   GripperGeometry<Scalar> gripper;             ///< shapes checked against the depth
   int num_threads = 1;                         ///< candidates in parallel (0 = all cores); same output for any count
@@ -250,6 +260,7 @@ class ReferenceEstimator {
     require(std::isfinite(s.collision_margin) && s.collision_margin >= 0, "collision_margin", "must be >= 0");
     require(std::isfinite(s.own_surface_margin) && s.own_surface_margin >= 0, "own_surface_margin", "must be >= 0");
     require(s.min_colliding_samples >= 1, "min_colliding_samples", "must be >= 1");
+    require(std::isfinite(s.hole_reach) && s.hole_reach >= 0, "hole_reach", "must be finite and >= 0");
     require(std::isfinite(s.gripper.approach_opening) && s.gripper.approach_opening >= 0, "gripper.approach_opening",
             "must be >= 0");
     require(s.num_threads >= 0, "num_threads", "must be >= 0 (0 = all cores)");
@@ -937,24 +948,56 @@ class ReferenceEstimator {
 
   /// Whether the gripper (its `samples`, grasp frame) at T_camera_grasp stands behind measured surfaces
   /// that are not the part's own (collision_margin, own_surface_margin) at min_colliding_samples or
-  /// more of its samples.
+  /// more of its samples. A sample over a hole is checked against the nearest surface within
+  /// hole_reach of it.
   bool gripper_collides(const cycle::EstimatorInput<Scalar, Camera>& input, const Camera& cam,
                         const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_object_camera,
                         const Isometry3<Scalar>& T_camera_grasp, const std::vector<Vec3>& samples) const {
     const DepthImageView<Scalar>& scene = obstacles_of(input);
+    // A pixel's side at 1 m depth, at the grasp: hole_reach in pixels at a sample's depth.
+    Scalar pixel_at_1m = 0;
+    if (s_.hole_reach > Scalar(0)) {
+      const auto g = cam.project(T_camera_grasp.translation());
+      const Scalar gu = g ? g->x() : Scalar(cam.width()) / 2, gv = g ? g->y() : Scalar(cam.height()) / 2;
+      pixel_at_1m = (cam.backproject(gu + Scalar(1), gv, Scalar(1)) - cam.backproject(gu, gv, Scalar(1))).norm();
+    }
     int colliding = 0;
     for (const Vec3& q : samples) {
       const Vec3 p = T_camera_grasp * q;
       const auto px = cam.project(p);
       if (!px) continue;
-      const int u = int(std::lround(px->x())), v = int(std::lround(px->y()));
-      const Scalar z = scene.depth(u, v);
+      int u = int(std::lround(px->x())), v = int(std::lround(px->y()));
+      Scalar z = scene.depth(u, v);
+      if (!(z > Scalar(0)) && pixel_at_1m > Scalar(0)) nearest_surface_around(scene, s_.hole_reach / (p.z() * pixel_at_1m), u, v, z);
       if (!(z > Scalar(0) && z < p.z() - s_.collision_margin)) continue;  // not behind a measured surface
       const auto m = cam.backproject(Scalar(u), Scalar(v), z);
       if (pm.association->partner(T_object_camera * m.template cast<Scalar>(), s_.own_surface_margin) >= 0) continue;
       if (++colliding >= s_.min_colliding_samples) return true;
     }
     return false;
+  }
+
+  /// The smallest measured depth within `radius` pixels (Chebyshev, rounded) of (u, v), and its pixel
+  /// in (u, v); nothing changes when there is none or the radius rounds to 0.
+  static void nearest_surface_around(const DepthImageView<Scalar>& depth, Scalar radius, int& u, int& v, Scalar& z) {
+    const int r = int(std::lround(std::min(radius, Scalar(64))));  // bounded: a sample at a tiny depth
+    if (r <= 0) return;
+    Scalar best = std::numeric_limits<Scalar>::infinity();
+    int bu = u, bv = v;
+    for (int vv = std::max(0, v - r); vv <= std::min(depth.height() - 1, v + r); ++vv)
+      for (int uu = std::max(0, u - r); uu <= std::min(depth.width() - 1, u + r); ++uu) {
+        const Scalar d = depth.depth(uu, vv);
+        if (d > Scalar(0) && d < best) {
+          best = d;
+          bu = uu;
+          bv = vv;
+        }
+      }
+    if (best < std::numeric_limits<Scalar>::infinity()) {
+      z = best;
+      u = bu;
+      v = bv;
+    }
   }
 
   ReferenceEstimatorSettings<Scalar> s_;
