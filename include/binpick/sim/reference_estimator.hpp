@@ -171,6 +171,23 @@ struct ReferenceEstimation {
 
 namespace detail {
 
+/// The smallest valid (> 0) value `z(i, j)` of the cells within `r` of (i, j) (Chebyshev, clipped to
+/// width × height), +inf when none; (bi, bj) is the first such cell in row order.
+template <typename Scalar, typename Depth>
+Scalar smallest_depth_around(int width, int height, int i, int j, int r, const Depth& z, int& bi, int& bj) {
+  Scalar best = std::numeric_limits<Scalar>::infinity();
+  for (int jj = std::max(0, j - r); jj <= std::min(height - 1, j + r); ++jj)
+    for (int ii = std::max(0, i - r); ii <= std::min(width - 1, i + r); ++ii) {
+      const Scalar d = z(ii, jj);
+      if (d > Scalar(0) && d < best) {
+        best = d;
+        bi = ii;
+        bj = jj;
+      }
+    }
+  return best;
+}
+
 /// The strided grid of backprojected depth.
 template <typename Scalar>
 struct DepthGrid {
@@ -434,15 +451,11 @@ class ReferenceEstimator {
         g.footprint[g.index(i, j)] = (q - p).norm();
       }
     g.nearest.assign(n, std::numeric_limits<Scalar>::infinity());
+    const auto grid_z = [&](int i, int j) { return g.points[g.index(i, j)].z(); };
     for (int j = 0; j < g.height; ++j)
       for (int i = 0; i < g.width; ++i) {
-        Scalar m = std::numeric_limits<Scalar>::infinity();
-        for (int jj = std::max(0, j - 1); jj <= std::min(g.height - 1, j + 1); ++jj)
-          for (int ii = std::max(0, i - 1); ii <= std::min(g.width - 1, i + 1); ++ii) {
-            const Scalar z = g.points[g.index(ii, jj)].z();
-            if (z > Scalar(0)) m = std::min(m, z);
-          }
-        g.nearest[g.index(i, j)] = m;
+        int bi, bj;
+        g.nearest[g.index(i, j)] = detail::smallest_depth_around<Scalar>(g.width, g.height, i, j, 1, grid_z, bi, bj);
       }
     for (int j = 0; j < g.height; ++j)
       for (int i = 0; i < g.width; ++i) {
@@ -816,14 +829,17 @@ class ReferenceEstimator {
     return false;
   }
 
+  /// The width [m] of pixel (u, v) on a surface at `depth` facing the camera.
+  static Scalar pixel_width(const Camera& cam, Scalar u, Scalar v, Scalar depth) {
+    return (cam.backproject(u + Scalar(1), v, depth) - cam.backproject(u, v, depth)).norm();
+  }
+
   /// Grid cells [i0, i1] × [j0, j1] covering the sphere (centre, radius) in the camera; false if none.
   static bool grid_window(const detail::DepthGrid<Scalar>& g, const Camera& cam, const Vec3& centre, Scalar radius, int& i0,
                           int& i1, int& j0, int& j1) {
     if (!(centre.z() > radius)) return false;
     // Pixel radius from a point one radius off the centre, across the line of sight.
-    const Vec3 a = cam.backproject(Scalar(0), Scalar(0), centre.z() - radius);
-    const Vec3 b = cam.backproject(Scalar(1), Scalar(0), centre.z() - radius);
-    const Scalar px_per_m = Scalar(1) / std::max((b - a).norm(), Scalar(1e-9));
+    const Scalar px_per_m = Scalar(1) / std::max(pixel_width(cam, Scalar(0), Scalar(0), centre.z() - radius), Scalar(1e-9));
     const Vec3 ray = centre / centre.z();
     const Vec3 near = ray * (centre.z() - radius);
     const auto pc = cam.project(near);
@@ -954,12 +970,12 @@ class ReferenceEstimator {
                         const detail::PreparedModel<Scalar>& pm, const Isometry3<Scalar>& T_object_camera,
                         const Isometry3<Scalar>& T_camera_grasp, const std::vector<Vec3>& samples) const {
     const DepthImageView<Scalar>& scene = obstacles_of(input);
-    // A pixel's side at 1 m depth, at the grasp: hole_reach in pixels at a sample's depth.
-    Scalar pixel_at_1m = 0;
+    // hole_reach in pixels at 1 m depth, at the grasp (divided by a sample's depth below).
+    Scalar reach_px_at_1m = 0;
     if (s_.hole_reach > Scalar(0)) {
       const auto g = cam.project(T_camera_grasp.translation());
-      const Scalar gu = g ? g->x() : Scalar(cam.width()) / 2, gv = g ? g->y() : Scalar(cam.height()) / 2;
-      pixel_at_1m = (cam.backproject(gu + Scalar(1), gv, Scalar(1)) - cam.backproject(gu, gv, Scalar(1))).norm();
+      reach_px_at_1m = s_.hole_reach / pixel_width(cam, g ? g->x() : Scalar(cam.width()) / 2,
+                                                   g ? g->y() : Scalar(cam.height()) / 2, Scalar(1));
     }
     int colliding = 0;
     for (const Vec3& q : samples) {
@@ -968,7 +984,7 @@ class ReferenceEstimator {
       if (!px) continue;
       int u = int(std::lround(px->x())), v = int(std::lround(px->y()));
       Scalar z = scene.depth(u, v);
-      if (!(z > Scalar(0)) && pixel_at_1m > Scalar(0)) nearest_surface_around(scene, s_.hole_reach / (p.z() * pixel_at_1m), u, v, z);
+      if (!(z > Scalar(0))) nearest_surface_around(scene, reach_px_at_1m / p.z(), u, v, z);
       if (!(z > Scalar(0) && z < p.z() - s_.collision_margin)) continue;  // not behind a measured surface
       const auto m = cam.backproject(Scalar(u), Scalar(v), z);
       if (pm.association->partner(T_object_camera * m.template cast<Scalar>(), s_.own_surface_margin) >= 0) continue;
@@ -980,19 +996,11 @@ class ReferenceEstimator {
   /// The smallest measured depth within `radius` pixels (Chebyshev, rounded) of (u, v), and its pixel
   /// in (u, v); nothing changes when there is none or the radius rounds to 0.
   static void nearest_surface_around(const DepthImageView<Scalar>& depth, Scalar radius, int& u, int& v, Scalar& z) {
+    if (!(radius >= Scalar(0.5))) return;  // rounds to 0 (or NaN)
     const int r = int(std::lround(std::min(radius, Scalar(64))));  // bounded: a sample at a tiny depth
-    if (r <= 0) return;
-    Scalar best = std::numeric_limits<Scalar>::infinity();
     int bu = u, bv = v;
-    for (int vv = std::max(0, v - r); vv <= std::min(depth.height() - 1, v + r); ++vv)
-      for (int uu = std::max(0, u - r); uu <= std::min(depth.width() - 1, u + r); ++uu) {
-        const Scalar d = depth.depth(uu, vv);
-        if (d > Scalar(0) && d < best) {
-          best = d;
-          bu = uu;
-          bv = vv;
-        }
-      }
+    const Scalar best = detail::smallest_depth_around<Scalar>(
+        depth.width(), depth.height(), u, v, r, [&](int uu, int vv) { return depth.depth(uu, vv); }, bu, bv);
     if (best < std::numeric_limits<Scalar>::infinity()) {
       z = best;
       u = bu;
