@@ -312,8 +312,8 @@ BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b
   PlaneBlockSums<Scalar> out;
   // Upper-triangle entry (a, c) of h, a <= c <= 5.
   const auto at = [](int a, int c) { return a * 6 - a * (a - 1) / 2 + (c - a); };
-  // Rows a0 and a1 of Σ w J Jᵀ (from the diagonal on) and entries a0, a1 of Σ w r J; with `last`
-  // (a1 = 5) also Σ r² .
+  // Rows a0 and a1 of Σ w J Jᵀ (from the diagonal on) and entries a0, a1 of Σ w r J; with the last
+  // pair of rows (a1 = 5) also Σ r².
   const auto sweep = [&](auto first) BINPICK_SIMD_INLINE_LAMBDA {
     constexpr int a0 = decltype(first)::value, a1 = a0 + 1, n0 = 6 - a0, n1 = 6 - a1;
     constexpr bool last = a1 == 5;
@@ -327,14 +327,14 @@ BINPICK_SIMD_INLINE PlaneBlockSums<Scalar> plane_sums(const PairBlock<Scalar>& b
       for (int c = 0; c < n1; ++c) s1[c] += w1 * P::load(rows[a1 + c] + i);
       g0 += w0 * r;
       g1 += w1 * r;
-      if (last) sq += r * r;
+      if constexpr (last) sq += r * r;
     }
     for (int l = 0; l < L; ++l) {  // lanes in a fixed order: deterministic
       for (int c = 0; c < n0; ++c) out.h[at(a0, a0 + c)] += s0[c][l];
       for (int c = 0; c < n1; ++c) out.h[at(a1, a1 + c)] += s1[c][l];
       out.g[a0] += g0[l];
       out.g[a1] += g1[l];
-      if (last) out.sum_sq += sq[l];
+      if constexpr (last) out.sum_sq += sq[l];
     }
   };
   sweep(std::integral_constant<int, 0>());

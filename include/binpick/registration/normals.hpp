@@ -169,16 +169,14 @@ BINPICK_SIMD_BEGIN
 /// operations in the same order lane by lane, so the same bits (the crease sign test is chosen once
 /// per call, not per lane). `l` / `r` / `t` / `d` hold, at the same entries, the pixels' neighbours
 /// k pixels to the left, right, above and below (for neighbouring pixels of one image row: that row
-/// shifted by -k and +k, and the rows k above and below). Two passes: this one writes the raw
-/// (unscaled) normals to entries u.. of `raw_x` / `raw_y` / `raw_z` and their squared length to
-/// `raw_n2` (0 for none), unit_normals_pack finishes them. The square root and division of the
-/// second pass have long latencies; in a loop of their own, several packs overlap them (the
-/// normals of a 640 x 480 image, 1 thread, AMD Zen 3: 1.61 ms in one pass, 1.38 ms in two).
+/// shifted by -k and +k, and the rows k above and below). The first of two passes
+/// (organized_normals_packs): writes the raw (unscaled) normals to entries u.. of the rows x, y, z of
+/// `raw` (rows `raw_row` apart) and their squared length to its row 3 (0 for none).
 template <typename Scalar, int Bytes>
 BINPICK_SIMD_INLINE void organized_normals_pack(const RowXyz<Scalar>& c, const RowXyz<Scalar>& l, const RowXyz<Scalar>& r,
                                                 const RowXyz<Scalar>& t, const RowXyz<Scalar>& d, int u,
-                                                Scalar jump_ratio, Scalar cos_crease, Scalar* raw_x, Scalar* raw_y,
-                                                Scalar* raw_z, Scalar* raw_n2) {
+                                                Scalar jump_ratio, Scalar cos_crease, Scalar* raw,
+                                                std::ptrdiff_t raw_row) {
   using P = detail::Pack<Scalar, Bytes>;
   using V = typename P::type;
   using M = typename P::mask;
@@ -213,32 +211,50 @@ BINPICK_SIMD_INLINE void organized_normals_pack(const RowXyz<Scalar>& c, const R
   const V n2 = nx * nx + ny * ny + nz * nz;
   ok &= (n2 > P::splat(Scalar(1e-6)) * (ux * ux + uy * uy + uz * uz) * (vx * vx + vy * vy + vz * vz)) & (n2 < inf);
   // ok implies n2 > 0 (it exceeds a product of squares), so n2 or 0 carries ok to the second pass.
-  P::store(raw_x + u, nx);
-  P::store(raw_y + u, ny);
-  P::store(raw_z + u, nz);
-  P::store(raw_n2 + u, P::select(ok, n2, zero));
+  P::store(raw + u, nx);
+  P::store(raw + raw_row + u, ny);
+  P::store(raw + 2 * raw_row + u, nz);
+  P::store(raw + 3 * raw_row + u, P::select(ok, n2, zero));
 }
 
-/// The second pass of organized_normals_pack: the raw normals at entries u.. of `raw` / `raw_n2`
-/// scaled to unit length and turned toward the camera (the pixels at entries u.. of `c`), zero where
-/// raw_n2 is 0; written to out[0..size).
+/// The second pass: organized_normals_pack's raw normals at entries u.. of `raw` scaled to unit
+/// length and turned toward the camera (the pixels at entries u.. of `c`), zero where their squared
+/// length is 0; written to out[0..size).
 template <typename Scalar, int Bytes>
-BINPICK_SIMD_INLINE void unit_normals_pack(const RowXyz<Scalar>& c, const RowXyz<Scalar>& raw, const Scalar* raw_n2, int u,
+BINPICK_SIMD_INLINE void unit_normals_pack(const RowXyz<Scalar>& c, const Scalar* raw, std::ptrdiff_t raw_row, int u,
                                            Vector3<Scalar>* out) {
   using P = detail::Pack<Scalar, Bytes>;
   using V = typename P::type;
   using M = typename P::mask;
   const V zero = P::splat(Scalar(0));
-  const V n2 = P::load(raw_n2 + u);
+  const V n2 = P::load(raw + 3 * raw_row + u);
   const M ok = n2 > zero;
   const V inv = P::splat(Scalar(1)) / P::sqrt(P::select(ok, n2, P::splat(Scalar(1))));
-  V ox = P::load(raw.x + u) * inv, oy = P::load(raw.y + u) * inv, oz = P::load(raw.z + u) * inv;
+  V ox = P::load(raw + u) * inv, oy = P::load(raw + raw_row + u) * inv, oz = P::load(raw + 2 * raw_row + u) * inv;
   const M flip = ox * P::load(c.x + u) + oy * P::load(c.y + u) + oz * P::load(c.z + u) > zero;  // toward the camera
   ox = P::select(ok, P::select(flip, -ox, ox), zero);
   oy = P::select(ok, P::select(flip, -oy, oy), zero);
   oz = P::select(ok, P::select(flip, -oz, oz), zero);
   static_assert(sizeof(Vector3<Scalar>) == 3 * sizeof(Scalar), "3-vectors must be packed");
   P::store3(out->data(), ox, oy, oz);
+}
+
+/// The normals of the whole packs of entries [begin, end) of one row into out[begin..): both passes,
+/// organized_normals_pack over the packs, then unit_normals_pack (`raw`: 4 rows of `raw_row` >= end
+/// scalars). The square root and division of the second pass have long latencies; in a loop of their
+/// own, several packs overlap them (the normals of a 640 x 480 image, 1 thread, AMD Zen 3: 1.61 ms in
+/// one pass, 1.38 ms in two). Returns the first entry not done.
+template <typename Scalar, int Bytes>
+BINPICK_SIMD_INLINE int organized_normals_packs(const RowXyz<Scalar>& c, const RowXyz<Scalar>& l, const RowXyz<Scalar>& r,
+                                                const RowXyz<Scalar>& t, const RowXyz<Scalar>& d, int begin, int end,
+                                                Scalar jump_ratio, Scalar cos_crease, Scalar* raw, std::ptrdiff_t raw_row,
+                                                Vector3<Scalar>* out) {
+  constexpr int size = detail::Pack<Scalar, Bytes>::size;
+  int u = begin;
+  for (; u + size <= end; u += size)
+    organized_normals_pack<Scalar, Bytes>(c, l, r, t, d, u, jump_ratio, cos_crease, raw, raw_row);
+  for (int e = begin; e < u; e += size) unit_normals_pack<Scalar, Bytes>(c, raw, raw_row, e, out + e);
+  return u;
 }
 
 /// x[u], y[u], z[u] = p[u] for u < w: a row of 3-vectors as coordinate rows, a pack at a time.
@@ -305,16 +321,9 @@ void organized_normals_into(const OrganizedCloud<Scalar>& cloud, const Organized
         const RowXyz<Scalar> l{c.x - k, c.y - k, c.z - k}, r{c.x + k, c.y + k, c.z + k};
         scalar_row(v, 0, k);
         int u = k;
-        Scalar* raw = ring.raw.data();
-        const RowXyz<Scalar> raw_xyz{raw, raw + w, raw + 2 * w};
         detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
-          constexpr int size = detail::Pack<Scalar, decltype(bytes)::value>::size;
-          const int begin = u;
-          for (; u + size <= w - k; u += size)
-            organized_normals_pack<Scalar, decltype(bytes)::value>(c, l, r, t, d, u, jump_ratio, cc, raw, raw + w,
-                                                                   raw + 2 * w, raw + 3 * w);
-          for (int e = begin; e < u; e += size)
-            unit_normals_pack<Scalar, decltype(bytes)::value>(c, raw_xyz, raw + 3 * w, e, out + cloud.index(e, v));
+          u = organized_normals_packs<Scalar, decltype(bytes)::value>(c, l, r, t, d, k, w - k, jump_ratio, cc, ring.raw.data(),
+                                                                      w, out + cloud.index(0, v));
         });
         scalar_row(v, u, w);
       },
@@ -472,16 +481,10 @@ void subsample_with_normals(const DepthImageView<Scalar>& depth, const Camera& c
       fill(kTop, j0, v - k, u0, n);
       fill(kBottom, j0, v + k, u0, n);
       int j = j0;
-      Scalar* raw = rows.data() + std::size_t(15) * std::size_t(cols);
-      const registration_detail::RowXyz<Scalar> raw_xyz{raw, raw + cols, raw + 2 * cols};
       detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
-        constexpr int size = detail::Pack<Scalar, decltype(bytes)::value>::size;
-        for (; j + size <= j1; j += size)
-          registration_detail::organized_normals_pack<Scalar, decltype(bytes)::value>(
-              c, lft, rgt, top, bot, j, settings.max_depth_jump_ratio, cc, raw, raw + cols, raw + 2 * cols, raw + 3 * cols);
-        for (int e = j0; e < j; e += size)
-          registration_detail::unit_normals_pack<Scalar, decltype(bytes)::value>(c, raw_xyz, raw + 3 * cols, e,
-                                                                                   row_normals.data() + e);
+        j = registration_detail::organized_normals_packs<Scalar, decltype(bytes)::value>(
+            c, lft, rgt, top, bot, j0, j1, settings.max_depth_jump_ratio, cc, rows.data() + 15 * std::size_t(cols), cols,
+            row_normals.data());
       });
       for (; j < j1; ++j) {  // the last few: organized_normal_interior on a patch
         // The centre and its four neighbours laid out for it: offsets ±1 (u), ±2 (v).
