@@ -324,16 +324,20 @@ void bench_icp_projective(const bench::Options& opt) {
     IcpResult<float> r;
     // One JSON line (and the time the targets read) per way of calling: "fresh", "kept" or
     // "per_view" (kept memory, the target prepared before the timing).
+    // "_points": the source's points alone, without its normals and their pair filter (as the
+    // fusion runs in the cell, and as ICPOdometry, which estimates the destination's normals only).
     const auto report = [&](const std::string& mode, const bench::Stats& st) {
       const Eigen::Matrix4d T = r.T_target_source.matrix().cast<double>();
       const char* memory = mode == "fresh" ? "fresh" : "kept";
-      const char* prepared = mode == "per_view" ? "source" : "source and target";
+      const char* prepared = mode.compare(0, 8, "per_view") == 0 ? "source" : "source and target";
+      const bool points_only = mode.size() > 7 && mode.compare(mode.size() - 7, 7, "_points") == 0;
       g_time[key("projective_" + mode, "binpick", threads)] = st.median;
       bench::JsonLine j("icp_projective");
       j.str("impl", "binpick").str("icp_isa", detail::fused_isa()).str("memory", memory).str("prepared_per_call", prepared).num("width", W)
           .num("height", H).num("threads", threads)
           .num("stride", 1).num("points_part", 1.0).stats(st).str("status", to_string(r.status))
-          .num("iterations", r.iterations).num("rmse_reported", r.rmse).num("inliers", double(r.inliers)).num("goal_ms", 5);
+          .num("iterations", r.iterations).num("rmse_reported", r.rmse).num("inliers", double(r.inliers)).num("goal_ms", 5)
+          .str("source_normals", points_only ? "none" : "estimated, pair filter");
       add_score(j, score(source, yardstick, T, max_d), pose_error(T, T_true)).print();
     };
     report("fresh", bench::measure(
@@ -358,6 +362,17 @@ void bench_icp_projective(const bench::Options& opt) {
                  bench::do_not_optimize(r);
                },
                opt.warmup, opt.trials));
+    report("kept_points",
+           bench::measure(
+               [&] {
+                 auto tgt = make_projective_target(target_depth.view(), cam, ProjectiveAssociationSettings{}, ns,
+                                                   std::move(target_storage));
+                 r = align_depth_view_points(source_depth.view(), cam, tgt, Isometry3<float>(init.cast<float>()), s,
+                                             workspace);
+                 target_storage = std::move(tgt).release_target();
+                 bench::do_not_optimize(r);
+               },
+               opt.warmup, opt.trials));
     // Per view: the target prepared once, as the fusion prepares view 1 once per cycle and a camera
     // stream has its previous frame prepared; timed is the source view's preparation and the ICP.
     const auto prepared = make_projective_target(target_depth.view(), cam, ProjectiveAssociationSettings{}, ns);
@@ -368,6 +383,13 @@ void bench_icp_projective(const bench::Options& opt) {
                                    bench::do_not_optimize(r);
                                  },
                                  opt.warmup, opt.trials));
+    report("per_view_points", bench::measure(
+                                  [&] {
+                                    r = align_depth_view_points(source_depth.view(), cam, prepared,
+                                                                Isometry3<float>(init.cast<float>()), s, workspace);
+                                    bench::do_not_optimize(r);
+                                  },
+                                  opt.warmup, opt.trials));
   }
 
   cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx(), 0, cam.cx(), 0, cam.fy(), cam.cy(), 0, 0, 1);
@@ -598,11 +620,12 @@ void print_targets(const bench::Options& opt) {
           .num("pose_error_mm_peer", g_error[key("knn_pose_mm", peer, pt)])
           .num("met", speedup >= 2 && eb <= ep * 1.02 ? 1 : 0).print();
     }
-    for (const char* mode : {"fresh", "kept", "per_view"}) {
-      const double pr = g_time[key(std::string("projective_") + mode, "binpick", t)];
+    for (const std::string mode : {"fresh", "kept", "per_view", "kept_points", "per_view_points"}) {
+      const double pr = g_time[key("projective_" + mode, "binpick", t)];
       bench::JsonLine j("target_icp_projective");
       j.str("mode", mode).num("threads", t).num("median_ms", pr);
-      const auto peer = g_time.find(key(std::string("projective_") + mode, "opencv", t));
+      const std::string peer_mode = mode.substr(0, mode.find("_points"));
+      const auto peer = g_time.find(key("projective_" + peer_mode, "opencv", t));
       if (peer != g_time.end()) j.num("opencv_all_points_ms", peer->second).num("speedup", peer->second / pr);
       j.num("goal_ms", 5).num("met", pr <= 5 ? 1 : 0).print();
     }

@@ -217,6 +217,38 @@ void check_pack_load3_store3() {
 TEST(Simd, PackLoad3Store3Float) { check_pack_load3_store3<float>(); }
 TEST(Simd, PackLoad3Store3Double) { check_pack_load3_store3<double>(); }
 
+// Pack::all / none at every SIMD level, for every single-lane mask, none and all lanes (a mask
+// test that looked at one lane or one byte too few would pass some of these and fail others).
+template <typename Scalar>
+void check_pack_all_none() {
+  for (const SimdLevel level : available_simd_levels()) {
+    const test::SimdCap cap(level);
+    int lanes = 0;
+    std::vector<int> all_of, none_of;  // per case: -1 no lane set, L all lanes, else the one lane set
+    detail::simd_call([&](auto bytes) BINPICK_SIMD_INLINE_LAMBDA {
+      using P = detail::Pack<Scalar, decltype(bytes)::value>;
+      using V = typename P::type;
+      lanes = P::size;
+      V index;
+      for (int l = 0; l < P::size; ++l) index[l] = Scalar(l);
+      for (int c = -1; c <= P::size; ++c) {
+        const auto m = c < 0 ? index < P::splat(Scalar(-1)) : c == P::size ? index >= P::splat(Scalar(0)) : index == P::splat(Scalar(c));
+        all_of.push_back(P::all(m));
+        none_of.push_back(P::none(m));
+      }
+    });
+    ASSERT_EQ(all_of.size(), std::size_t(lanes + 2));
+    for (int c = -1; c <= lanes; ++c) {
+      const std::size_t k = std::size_t(c + 1);
+      EXPECT_EQ(all_of[k], c == lanes || (lanes == 1 && c == 0)) << "lanes " << lanes << " case " << c;
+      EXPECT_EQ(none_of[k], c == -1) << "lanes " << lanes << " case " << c;
+    }
+  }
+}
+
+TEST(Simd, PackAllNoneFloat) { check_pack_all_none<float>(); }
+TEST(Simd, PackAllNoneDouble) { check_pack_all_none<double>(); }
+
 // reserve_huge is reserve() plus a hint: contents kept, capacity enough; a large buffer's capacity is
 // rounded so that the allocation (with the allocator's 24-byte chunk overhead) fills whole 2 MB pages.
 TEST(HugePages, ReserveHugeKeepsContentsAndRoundsLargeBuffers) {

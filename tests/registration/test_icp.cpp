@@ -398,6 +398,18 @@ TEST(Icp, WorkspaceReusedAcrossCallsGivesFreshResults) {
     plane.stride = stride;
     same(align_depth_view(depth.view(), cam, target, init, plane, ns, aws),
          align_depth_view(depth.view(), cam, target, init, plane, ns));
+    // The points alone, in the same workspace (whose source has normals from the call above): the
+    // normals are dropped and the points are those of the organized backprojection, in row order.
+    // Holes (every 7th pixel) so that the points are a compaction of the grid.
+    DepthImage<double> holed = depth;
+    for (std::size_t i = 0; i < holed.storage().size(); i += 7) holed.storage()[i] = 0;
+    IcpSettings<double> one = plane;
+    one.stride = 1;
+    const PointCloud<double> bare_strided = valid_points(backproject_organized(holed.view(), cam, stride));
+    ASSERT_LT(bare_strided.size(), backproject_organized(holed.view(), cam, stride).points.size());
+    same(align_depth_view_points(holed.view(), cam, target, init, plane, aws), icp(bare_strided, target, init, one));
+    EXPECT_FALSE(aws.source.has_normals());
+    EXPECT_EQ(aws.source.points, bare_strided.points);
   }
 }
 

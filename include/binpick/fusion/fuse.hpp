@@ -363,8 +363,6 @@ class Fuser {
     // both (bench_cycle, 1280x1024). View 1's normals above use all threads.
     IcpSettings<Scalar> icp_settings = st.icp;
     icp_settings.num_threads = 1;
-    IcpSettings<Scalar> icp_strided = icp_settings;
-    icp_strided.stride = 1;  // the image grid is subsampled by backproject_points
     OrganizedNormalSettings<Scalar> source_normals = settings.normals;
     source_normals.num_threads = 1;
     const long nreg = long(views.size()) - 1;
@@ -381,8 +379,7 @@ class Fuser {
         const IcpResult<Scalar> r =
             settings.source_normals
                 ? align_depth_view(views[i], camera_, reference, T_ref_view_prior, icp_settings, source_normals, ws)
-                : icp(backproject_points(views[i], camera_, st.icp.stride), reference,
-                      T_ref_view_prior, icp_strided, ws.icp);
+                : align_depth_view_points(views[i], camera_, reference, T_ref_view_prior, icp_settings, ws);
         const Isometry3<Scalar> correction = r.T_target_source * T_ref_view_prior.inverse(Eigen::Isometry);
         rep.icp_status = r.status;
         rep.icp_rmse = r.rmse;

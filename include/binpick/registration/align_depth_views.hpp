@@ -48,7 +48,7 @@ ProjectiveAssociation<Scalar, Camera> make_projective_target(const DepthImageVie
 /// per thread of a camera loop and only the first frame allocates.
 template <typename Scalar>
 struct AlignWorkspace {
-  PointCloud<Scalar> source;  ///< the last source view's cloud with normals
+  PointCloud<Scalar> source;  ///< the last source view's cloud (with normals, unless aligned by its points)
   IcpWorkspace<Scalar> icp;
 };
 
@@ -65,6 +65,23 @@ IcpResult<Scalar> align_depth_view(const DepthImageView<Scalar>& source_depth, c
   IcpSettings<Scalar> s = settings;
   s.stride = 1;  // applied to the image grid here
   subsample_with_normals(source_depth, source_camera, settings.stride, source_normals, workspace.source);
+  return icp(workspace.source, target, T_target_source_init, s, workspace.icp);
+}
+
+/// align_depth_view with the source's points alone: no source normals, so no pair filter on the
+/// normals' angle (IcpSettings::max_normal_angle is ignored) and no normal estimation to pay for — the
+/// robust kernel alone handles partners across creases and occlusion edges. What OpenCV's
+/// rgbd::ICPOdometry does (normals of the destination only), and what the fusion does on single-shot
+/// depth of shiny metal, whose source normals are noisy enough that their filter biases the pose
+/// (FusionSettings::source_normals).
+template <typename Scalar, typename SourceCamera, typename Association>
+IcpResult<Scalar> align_depth_view_points(const DepthImageView<Scalar>& source_depth, const SourceCamera& source_camera,
+                                          const Association& target, const Isometry3<Scalar>& T_target_source_init,
+                                          const IcpSettings<Scalar>& settings, AlignWorkspace<Scalar>& workspace) {
+  require(settings.stride >= 1, "stride", "must be >= 1");
+  IcpSettings<Scalar> s = settings;
+  s.stride = 1;  // applied to the image grid here
+  backproject_points(source_depth, source_camera, settings.stride, workspace.source);
   return icp(workspace.source, target, T_target_source_init, s, workspace.icp);
 }
 

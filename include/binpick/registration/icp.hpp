@@ -370,10 +370,7 @@ BINPICK_SIMD_INLINE void gather_xyz(const Scalar* a, const Scalar* b,
   Mask lane;  // a constant: folded at compile time
   for (int l = 0; l < L; ++l) lane[l] = Index(l);
   const Mask start = index - lane;  // index[0] in every lane of a consecutive pack
-  const Mask bad = (start != start[0]) | ~ok;
-  bool consecutive = true;
-  for (int l = 0; l < L; ++l) consecutive &= bad[l] == 0;
-  if (consecutive) {
+  if (P::none((start != start[0]) | ~ok)) {
     const std::ptrdiff_t e = 3 * std::ptrdiff_t(index[0]);
     P::load3(a + e, rows_a[0] + i, rows_a[1] + i, rows_a[2] + i);
     if (b) P::load3(b + e, rows_b[0] + i, rows_b[1] + i, rows_b[2] + i);

@@ -215,21 +215,40 @@ PointCloud<Scalar> valid_points(const OrganizedCloud<Scalar>& organized) {
 }
 
 /// The valid pixels of every `stride`-th row and column of `depth` as an unorganized cloud [m]
-/// (stride 4 keeps 1/16 of the pixels). Throws std::invalid_argument for stride < 1 or a size mismatch.
+/// (stride 4 keeps 1/16 of the pixels), in row order, written into `cloud` (its normals cleared)
+/// reusing its memory: a cloud kept across frames allocates once. Throws std::invalid_argument for
+/// stride < 1 or a size mismatch.
 template <typename Scalar, typename Camera>
-PointCloud<Scalar> backproject_points(const DepthImageView<Scalar>& depth, const Camera& camera, int stride = 1) {
+void backproject_points(const DepthImageView<Scalar>& depth, const Camera& camera, int stride, PointCloud<Scalar>& cloud) {
   static_assert(is_camera_model<Camera>::value, "Camera must model the camera concept (camera_model.hpp)");
   require(stride >= 1, "stride", "must be >= 1");
   require(depth.width() == camera.width() && depth.height() == camera.height(), "depth",
           "image size differs from the camera's");
-  PointCloud<Scalar> cloud;
-  cloud.points.reserve(std::size_t(depth.width() / stride + 1) * std::size_t(depth.height() / stride + 1));
+  const int w = (depth.width() + stride - 1) / stride, h = (depth.height() + stride - 1) / stride;
+  cloud.normals.clear();
+  binpick::detail::reserve_huge(cloud.points, std::size_t(w) * std::size_t(h));
+  cloud.points.resize(std::size_t(w) * std::size_t(h));  // the upper bound; cut to the valid ones below
   const registration_detail::PixelBackprojector<Scalar, Camera> point(camera);
-  for (int v = 0; v < depth.height(); v += stride)
-    for (int u = 0; u < depth.width(); u += stride) {
-      const Vector3<Scalar> p = point(u, v, depth.depth(u, v));
-      if (p.z() > Scalar(0)) cloud.points.push_back(p);
+  std::vector<Scalar> xyz(3 * std::size_t(w));
+  Scalar *x = xyz.data(), *y = x + w, *z = y + w;
+  Vector3<Scalar>* out = cloud.points.data();
+  std::size_t n = 0;
+  for (int v = 0; v < depth.height(); v += stride) {
+    point.row(depth, v, 0, stride, w, x, y, z);
+    // Written always, kept when valid: holes in metal depth images make a branch per pixel unpredictable.
+    for (int j = 0; j < w; ++j) {
+      out[n] = Vector3<Scalar>(x[j], y[j], z[j]);
+      n += std::size_t(z[j] > Scalar(0));
     }
+  }
+  cloud.points.resize(n);
+}
+
+/// backproject_points into a new cloud.
+template <typename Scalar, typename Camera>
+PointCloud<Scalar> backproject_points(const DepthImageView<Scalar>& depth, const Camera& camera, int stride = 1) {
+  PointCloud<Scalar> cloud;
+  backproject_points(depth, camera, stride, cloud);
   return cloud;
 }
 

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <limits>
 #include <type_traits>
 #include <utility>
@@ -107,7 +108,9 @@ class ProjectiveAssociation {
         const Mask iv = __builtin_convertvector(P::select(ok, v + half, zero), Mask);
         ok &= (iu < Index(w)) & (iv < Index(h));
         const Mask id = ok ? iv * Index(w) + iu : Mask() - Index(1);
-        for (int l = 0; l < P::size; ++l) index[i + l] = std::ptrdiff_t(id[l]);
+        using Wide = typename detail::Lanes<std::ptrdiff_t, P::size>::type;
+        const Wide wide = __builtin_convertvector(id, Wide);  // one sign extension, not a lane at a time
+        std::memcpy(index + i, &wide, sizeof wide);
       }
       BINPICK_SIMD_END
     } else {
