@@ -140,8 +140,9 @@ struct Pack {
   /// True when no lane of a comparison mask is set.
   BINPICK_SIMD_INLINE static bool none(const mask& m) { return byte_signs(m) == 0; }
   /// The sign bits of the mask's bytes, one instruction (pmovmskb) with GCC's builtins on x86-64 (as
-  /// sqrt below); a lane loop otherwise, which GCC compiles to an extract a lane (measured: such a
-  /// loop in ICP's partner reads took 9 % of a point-to-plane iteration).
+  /// sqrt below); a lane loop otherwise, which GCC compiles to an extract a lane. (A sampling profile
+  /// put 9 % of a full-resolution point-to-plane iteration on such a loop in ICP's partner reads; the
+  /// instruction made no difference there above the benchmark host's run-to-run spread.)
   BINPICK_SIMD_INLINE static int byte_signs(const mask& m) {
 #if defined(__x86_64__) && !defined(__clang__) && defined(__GNUC__)
     using bytes = typename Lanes<char, Bytes>::type;
