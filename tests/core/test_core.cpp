@@ -232,7 +232,9 @@ void check_pack_all_none() {
       V index;
       for (int l = 0; l < P::size; ++l) index[l] = Scalar(l);
       for (int c = -1; c <= P::size; ++c) {
-        const auto m = c < 0 ? index < P::splat(Scalar(-1)) : c == P::size ? index >= P::splat(Scalar(0)) : index == P::splat(Scalar(c));
+        V ref;  // equal to index in no lane (c = -1), in lane c, or in all lanes (c = size)
+        for (int l = 0; l < P::size; ++l) ref[l] = c == P::size ? Scalar(l) : Scalar(c);
+        const auto m = index == ref;
         all_of.push_back(P::all(m));
         none_of.push_back(P::none(m));
       }

@@ -136,7 +136,13 @@ struct Pack {
     std::memcpy(p, &b, sizeof b);
   }
   /// True when every lane of a comparison mask is set.
-  BINPICK_SIMD_INLINE static bool all(const mask& m) { return byte_signs(m) == (Bytes == 32 ? -1 : (1 << Bytes) - 1); }
+  BINPICK_SIMD_INLINE static bool all(const mask& m) {
+    if constexpr (Bytes == 32) {
+      return byte_signs(m) == -1;
+    } else {
+      return byte_signs(m) == (1 << Bytes) - 1;
+    }
+  }
   /// True when no lane of a comparison mask is set.
   BINPICK_SIMD_INLINE static bool none(const mask& m) { return byte_signs(m) == 0; }
   /// The sign bits of the mask's bytes, one instruction (pmovmskb) with GCC's builtins on x86-64 (as
