@@ -326,11 +326,10 @@ void bench_icp_projective(const bench::Options& opt) {
     // "per_view" (kept memory, the target prepared before the timing).
     // "_points": the source's points alone, without its normals and their pair filter (as the
     // fusion runs in the cell, and as ICPOdometry, which estimates the destination's normals only).
-    const auto report = [&](const std::string& mode, const bench::Stats& st) {
+    const auto report = [&](const std::string& mode, const bench::Stats& st, bool points_only = false) {
       const Eigen::Matrix4d T = r.T_target_source.matrix().cast<double>();
       const char* memory = mode == "fresh" ? "fresh" : "kept";
-      const char* prepared = mode.compare(0, 8, "per_view") == 0 ? "source" : "source and target";
-      const bool points_only = mode.size() > 7 && mode.compare(mode.size() - 7, 7, "_points") == 0;
+      const char* prepared = mode.rfind("per_view", 0) == 0 ? "source" : "source and target";
       g_time[key("projective_" + mode, "binpick", threads)] = st.median;
       bench::JsonLine j("icp_projective");
       j.str("impl", "binpick").str("icp_isa", detail::fused_isa()).str("memory", memory).str("prepared_per_call", prepared).num("width", W)
@@ -372,7 +371,8 @@ void bench_icp_projective(const bench::Options& opt) {
                  target_storage = std::move(tgt).release_target();
                  bench::do_not_optimize(r);
                },
-               opt.warmup, opt.trials));
+               opt.warmup, opt.trials),
+           true);
     // Per view: the target prepared once, as the fusion prepares view 1 once per cycle and a camera
     // stream has its previous frame prepared; timed is the source view's preparation and the ICP.
     const auto prepared = make_projective_target(target_depth.view(), cam, ProjectiveAssociationSettings{}, ns);
@@ -389,7 +389,8 @@ void bench_icp_projective(const bench::Options& opt) {
                                                                 Isometry3<float>(init.cast<float>()), s, workspace);
                                     bench::do_not_optimize(r);
                                   },
-                                  opt.warmup, opt.trials));
+                                  opt.warmup, opt.trials),
+           true);
   }
 
   cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx(), 0, cam.cx(), 0, cam.fy(), cam.cy(), 0, 0, 1);

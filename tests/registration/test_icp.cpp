@@ -405,8 +405,9 @@ TEST(Icp, WorkspaceReusedAcrossCallsGivesFreshResults) {
     for (std::size_t i = 0; i < holed.storage().size(); i += 7) holed.storage()[i] = 0;
     IcpSettings<double> one = plane;
     one.stride = 1;
-    const PointCloud<double> bare_strided = valid_points(backproject_organized(holed.view(), cam, stride));
-    ASSERT_LT(bare_strided.size(), backproject_organized(holed.view(), cam, stride).points.size());
+    const OrganizedCloud<double> grid = backproject_organized(holed.view(), cam, stride);
+    const PointCloud<double> bare_strided = valid_points(grid);
+    ASSERT_LT(bare_strided.size(), grid.points.size());
     same(align_depth_view_points(holed.view(), cam, target, init, plane, aws), icp(bare_strided, target, init, one));
     EXPECT_FALSE(aws.source.has_normals());
     EXPECT_EQ(aws.source.points, bare_strided.points);

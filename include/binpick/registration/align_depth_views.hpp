@@ -78,10 +78,9 @@ template <typename Scalar, typename SourceCamera, typename Association>
 IcpResult<Scalar> align_depth_view_points(const DepthImageView<Scalar>& source_depth, const SourceCamera& source_camera,
                                           const Association& target, const Isometry3<Scalar>& T_target_source_init,
                                           const IcpSettings<Scalar>& settings, AlignWorkspace<Scalar>& workspace) {
-  require(settings.stride >= 1, "stride", "must be >= 1");
   IcpSettings<Scalar> s = settings;
   s.stride = 1;  // applied to the image grid here
-  backproject_points(source_depth, source_camera, settings.stride, workspace.source);
+  backproject_points(source_depth, source_camera, settings.stride, workspace.source);  // checks the stride
   return icp(workspace.source, target, T_target_source_init, s, workspace.icp);
 }
 

@@ -330,31 +330,6 @@ void organized_normals_into(const OrganizedCloud<Scalar>& cloud, const Organized
       [](Ring&, const Ring&) {}, 8);
 }
 
-/// Moves the pixels with a measurement (z > 0) and their normals to the front of both arrays, in
-/// order, and drops the rest: an organized cloud and its normals become an unorganized one in place.
-template <typename Scalar>
-void keep_valid_in_place(std::vector<Vector3<Scalar>>& points, std::vector<Vector3<Scalar>>& normals) {
-  // Runs of valid pixels moved whole (m <= i: nothing not yet read is overwritten); a run already
-  // in place (no invalid pixel before it) is not copied at all.
-  const std::size_t n = points.size();
-  std::size_t m = 0;
-  for (std::size_t i = 0; i < n;) {
-    if (!(points[i].z() > Scalar(0))) {
-      ++i;
-      continue;
-    }
-    std::size_t end = i + 1;
-    while (end < n && points[end].z() > Scalar(0)) ++end;
-    if (m != i) {
-      std::memmove(static_cast<void*>(points.data() + m), points.data() + i, (end - i) * sizeof(Vector3<Scalar>));
-      std::memmove(static_cast<void*>(normals.data() + m), normals.data() + i, (end - i) * sizeof(Vector3<Scalar>));
-    }
-    m += end - i;
-    i = end;
-  }
-  points.resize(m);
-  normals.resize(m);
-}
 }  // namespace registration_detail
 
 /// Fills `cloud.normals` (one per pixel). Throws std::invalid_argument for settings out of range or a

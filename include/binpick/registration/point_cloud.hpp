@@ -150,6 +150,35 @@ int backproject_pinhole_row(const T* row, Scalar scale, const PixelBackprojector
 
 BINPICK_SIMD_END
 
+/// Moves the pixels with a measurement (z > 0), and their normals when `normals` is not empty, to the
+/// front of the arrays, in order, and drops the rest: an organized cloud (and its normals) becomes an
+/// unorganized one in place.
+template <typename Scalar>
+void keep_valid_in_place(std::vector<Vector3<Scalar>>& points, std::vector<Vector3<Scalar>>& normals) {
+  const bool with_normals = !normals.empty();
+  // Runs of valid pixels moved whole (m <= i: nothing not yet read is overwritten); a run already
+  // in place (no invalid pixel before it) is not copied at all.
+  const std::size_t n = points.size();
+  std::size_t m = 0;
+  for (std::size_t i = 0; i < n;) {
+    if (!(points[i].z() > Scalar(0))) {
+      ++i;
+      continue;
+    }
+    std::size_t end = i + 1;
+    while (end < n && points[end].z() > Scalar(0)) ++end;
+    if (m != i) {
+      std::memmove(static_cast<void*>(points.data() + m), points.data() + i, (end - i) * sizeof(Vector3<Scalar>));
+      if (with_normals)
+        std::memmove(static_cast<void*>(normals.data() + m), normals.data() + i, (end - i) * sizeof(Vector3<Scalar>));
+    }
+    m += end - i;
+    i = end;
+  }
+  points.resize(m);
+  if (with_normals) normals.resize(m);
+}
+
 }  // namespace registration_detail
 
 /// One point per pixel of every `stride`-th row and column of `depth` (stride 1: every pixel; the
@@ -220,28 +249,13 @@ PointCloud<Scalar> valid_points(const OrganizedCloud<Scalar>& organized) {
 /// stride < 1 or a size mismatch.
 template <typename Scalar, typename Camera>
 void backproject_points(const DepthImageView<Scalar>& depth, const Camera& camera, int stride, PointCloud<Scalar>& cloud) {
-  static_assert(is_camera_model<Camera>::value, "Camera must model the camera concept (camera_model.hpp)");
-  require(stride >= 1, "stride", "must be >= 1");
-  require(depth.width() == camera.width() && depth.height() == camera.height(), "depth",
-          "image size differs from the camera's");
-  const int w = (depth.width() + stride - 1) / stride, h = (depth.height() + stride - 1) / stride;
+  // The organized backprojection in the cloud's own memory, then its holes squeezed out.
+  OrganizedCloud<Scalar> grid;
+  grid.points.swap(cloud.points);
+  backproject_organized(depth, camera, stride, grid);
+  cloud.points.swap(grid.points);
   cloud.normals.clear();
-  binpick::detail::reserve_huge(cloud.points, std::size_t(w) * std::size_t(h));
-  cloud.points.resize(std::size_t(w) * std::size_t(h));  // the upper bound; cut to the valid ones below
-  const registration_detail::PixelBackprojector<Scalar, Camera> point(camera);
-  std::vector<Scalar> xyz(3 * std::size_t(w));
-  Scalar *x = xyz.data(), *y = x + w, *z = y + w;
-  Vector3<Scalar>* out = cloud.points.data();
-  std::size_t n = 0;
-  for (int v = 0; v < depth.height(); v += stride) {
-    point.row(depth, v, 0, stride, w, x, y, z);
-    // Written always, kept when valid: holes in metal depth images make a branch per pixel unpredictable.
-    for (int j = 0; j < w; ++j) {
-      out[n] = Vector3<Scalar>(x[j], y[j], z[j]);
-      n += std::size_t(z[j] > Scalar(0));
-    }
-  }
-  cloud.points.resize(n);
+  registration_detail::keep_valid_in_place(cloud.points, cloud.normals);
 }
 
 /// backproject_points into a new cloud.

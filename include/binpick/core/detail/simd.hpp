@@ -136,34 +136,23 @@ struct Pack {
     std::memcpy(p, &b, sizeof b);
   }
   /// True when every lane of a comparison mask is set.
-  BINPICK_SIMD_INLINE static bool all(const mask& m) {
-    if constexpr (Bytes == 32) {
-      return byte_signs(m) == -1;
-    } else {
-      return byte_signs(m) == (1 << Bytes) - 1;
-    }
-  }
-  /// True when no lane of a comparison mask is set.
-  BINPICK_SIMD_INLINE static bool none(const mask& m) { return byte_signs(m) == 0; }
-  /// The sign bits of the mask's bytes, one instruction (pmovmskb) with GCC's builtins on x86-64 (as
+  BINPICK_SIMD_INLINE static bool all(const mask& m) { return none(~m); }
+  /// True when no lane of a comparison mask is set: one pmovmskb with GCC's builtins on x86-64 (as
   /// sqrt below); a lane loop otherwise, which GCC compiles to an extract a lane. (A sampling profile
   /// put 9 % of a full-resolution point-to-plane iteration on such a loop in ICP's partner reads; the
   /// instruction made no difference there above the benchmark host's run-to-run spread.)
-  BINPICK_SIMD_INLINE static int byte_signs(const mask& m) {
+  BINPICK_SIMD_INLINE static bool none(const mask& m) {
 #if defined(__x86_64__) && !defined(__clang__) && defined(__GNUC__)
     using bytes = typename Lanes<char, Bytes>::type;
     if constexpr (Bytes == 32) {
-      return __builtin_ia32_pmovmskb256((bytes)m);
+      return __builtin_ia32_pmovmskb256((bytes)m) == 0;
     } else if constexpr (Bytes == 16) {
-      return __builtin_ia32_pmovmskb128((bytes)m);
+      return __builtin_ia32_pmovmskb128((bytes)m) == 0;
     }
 #endif
-    static_assert(Bytes <= 32, "packs are at most 32 bytes");
-    constexpr int per_lane = Bytes / size;
-    unsigned r = 0;
-    for (int i = 0; i < size; ++i)
-      if (m[i] != 0) r |= ((1u << per_lane) - 1u) << (i * per_lane);
-    return int(r);  // all 32 bits set: -1, as pmovmskb's
+    bool any = false;
+    for (int i = 0; i < size; ++i) any |= m[i] != 0;
+    return !any;
   }
   /// Lane-wise mask ? a : b (mask lanes are all-ones or zero, as comparisons produce).
   BINPICK_SIMD_INLINE static type select(const mask& m, const type& a, const type& b) { return m ? a : b; }
