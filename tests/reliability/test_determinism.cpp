@@ -2,6 +2,8 @@
 // process (the two-process check is test_determinism.sh around reliability_fingerprint). Where the
 // thread count changes the last bits it is measured here and documented in the module's header.
 #include <cstring>
+#include <string>
+#include <type_traits>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -57,7 +59,14 @@ void expect_identical(const FusionResult<Scalar>& a, const FusionResult<Scalar>&
 template <typename Scalar>
 class Determinism : public ::testing::Test {};
 using Scalars = ::testing::Types<float, double>;
-TYPED_TEST_SUITE(Determinism, Scalars);
+// Named by the scalar (also gives the macro's optional argument, which Clang warns about when missing).
+struct ScalarName {
+  template <typename T>
+  static std::string GetName(int) {
+    return std::is_same<T, float>::value ? "float" : "double";
+  }
+};
+TYPED_TEST_SUITE(Determinism, Scalars, ScalarName);
 
 TYPED_TEST(Determinism, FusionWithoutRegistrationIsBitIdenticalTwiceAndForAnyThreadCount) {
   using Scalar = TypeParam;
