@@ -4,7 +4,7 @@
 # minutes on 2 cores. Writes to out/: picking_test.txt (tables), summary.json, cycles.csv (one row per
 # cycle), fused_depth.png / fused_depth_mm.png / votes.png (a cycle's fusion), sensing_path.svg and
 # timeline.svg (robot segments vs processing stages). Installs what it needs first.
-#   --full        5 types x 20 runs x 20 parts (hours)
+#   --full        5 types x 20 runs x 20 parts at the sensor's full 1280 x 1024 (hours; binpick_sim --help)
 #   --calibrate   first determine the sensing parameters in the cell (paper III.D.2, tools/binpick_calibrate)
 #                 and use them instead of the paper's Table III values
 # Other arguments are passed to binpick_sim (see binpick_sim --help).

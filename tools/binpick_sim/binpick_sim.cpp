@@ -83,7 +83,11 @@ int usage(const char* argv0) {
                "          [--params FILE] [--resolution 640x512|1280x1024|320x256] [--summary FILE]\n"
                "          [--fault-rate F] [--compute-time MS]\n"
                "  The picking test of Table III in the simulated cell (all figures simulated).\n"
-               "  Defaults: all 5 types, 1 run of 10 parts, 640x512, 2 jobs. --full: 20 runs of 20 parts.\n"
+               "  Defaults: all 5 types, 1 run of 10 parts, 640x512, 2 jobs.\n"
+               "  --full: 20 runs of 20 parts at the sensor's full 1280x1024 (what --runs, --parts and\n"
+               "  --resolution do not set):\n"
+               "  at 640x512 a mirror nut is 11 px across its flats, too few to see its turn (ours, seed 1,\n"
+               "  5 runs of 20: mirror nut 73 %% at 640x512, 94 %% at 1280x1024; all types 91 %% and 96 %%).\n"
                "  --params FILE: sensing parameters per type as written by binpick_calibrate (lines\n"
                "  'TYPE n t_ms v_percent ...'); otherwise the paper's Table III values.\n"
                "  --summary FILE: also write the --json summary to FILE.\n"
@@ -274,15 +278,15 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
 
 int main(int argc, char** argv) {
   Options o;
-  bool full = false;
+  bool full = false, runs_given = false, parts_given = false, resolution_given = false;
   std::string types = "all", strategies;
   try {
     for (tools::Args args(argc, argv); args.next();) {
       const std::string& a = args.flag();
       auto next = [&] { return args.value(); };
       if (a == "--types") types = next();
-      else if (a == "--runs") o.runs = std::stoi(next());
-      else if (a == "--parts") o.parts = std::stoi(next());
+      else if (a == "--runs") o.runs = std::stoi(next()), runs_given = true;
+      else if (a == "--parts") o.parts = std::stoi(next()), parts_given = true;
       else if (a == "--strategies") strategies = next();
       else if (a == "--seed") o.seed = std::stoull(next());
       else if (a == "--json") o.json = true;
@@ -300,6 +304,7 @@ int main(int argc, char** argv) {
         o.compute_time = ms * 1e-3;
       }
       else if (a == "--resolution") {
+        resolution_given = true;
         const std::string r = next();
         if (r == "640x512") o.width = 640, o.height = 512;
         else if (r == "1280x1024") o.width = 1280, o.height = 1024;
@@ -308,7 +313,11 @@ int main(int argc, char** argv) {
       } else if (a == "--help" || a == "-h") return usage(argv[0]);
       else throw std::invalid_argument("unknown option " + a);
     }
-    if (full) o.runs = 20, o.parts = 20;
+    if (full) {  // what --runs, --parts and --resolution do not set (usage)
+      if (!runs_given) o.runs = 20;
+      if (!parts_given) o.parts = 20;
+      if (!resolution_given) o.width = 1280, o.height = 1024;  // the sensor's full mode
+    }
     if (o.runs < 1 || o.parts < 1 || o.jobs < 1 || o.max_failures < 1) throw std::invalid_argument("counts must be >= 1");
     if (!(o.fault_rate >= 0 && o.fault_rate <= 1)) throw std::invalid_argument("--fault-rate must be in [0, 1]");
     o.types = simcell::part_types(types);
