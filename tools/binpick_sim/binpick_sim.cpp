@@ -17,6 +17,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -279,15 +280,16 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
 
 int main(int argc, char** argv) {
   Options o;
-  bool full = false, runs_given = false, parts_given = false, resolution_given = false;
-  std::string types = "all", strategies;
+  bool full = false;
+  std::optional<int> runs, parts;  // --full fills in what the command line leaves open
+  std::string types = "all", strategies, resolution;
   try {
     for (tools::Args args(argc, argv); args.next();) {
       const std::string& a = args.flag();
       auto next = [&] { return args.value(); };
       if (a == "--types") types = next();
-      else if (a == "--runs") o.runs = std::stoi(next()), runs_given = true;
-      else if (a == "--parts") o.parts = std::stoi(next()), parts_given = true;
+      else if (a == "--runs") runs = std::stoi(next());
+      else if (a == "--parts") parts = std::stoi(next());
       else if (a == "--strategies") strategies = next();
       else if (a == "--seed") o.seed = std::stoull(next());
       else if (a == "--json") o.json = true;
@@ -304,20 +306,19 @@ int main(int argc, char** argv) {
         if (!(std::isfinite(ms) && ms >= 0)) throw std::invalid_argument("--compute-time must be finite and >= 0 [ms]");
         o.compute_time = ms * 1e-3;
       }
-      else if (a == "--resolution") {
-        resolution_given = true;
-        const std::string r = next();
-        if (r == "640x512") o.width = 640, o.height = 512;
-        else if (r == "1280x1024") o.width = 1280, o.height = 1024;
-        else if (r == "320x256") o.width = 320, o.height = 256;  // quick checks (the estimator finds less)
-        else throw std::invalid_argument("--resolution must be 640x512, 1280x1024 or 320x256");
-      } else if (a == "--help" || a == "-h") return usage(argv[0]);
+      else if (a == "--resolution") resolution = next();
+      else if (a == "--help" || a == "-h") return usage(argv[0]);
       else throw std::invalid_argument("unknown option " + a);
     }
-    if (full) {  // what --runs, --parts and --resolution do not set (usage)
-      if (!runs_given) o.runs = 20;
-      if (!parts_given) o.parts = 20;
-      if (!resolution_given) o.width = 1280, o.height = 1024;  // the sensor's full mode
+    o.runs = runs.value_or(full ? 20 : o.runs);
+    o.parts = parts.value_or(full ? 20 : o.parts);
+    if (resolution == "640x512") o.width = 640, o.height = 512;
+    else if (resolution == "1280x1024") o.width = 1280, o.height = 1024;
+    else if (resolution == "320x256") o.width = 320, o.height = 256;  // quick checks (the estimator finds less)
+    else if (!resolution.empty()) throw std::invalid_argument("--resolution must be 640x512, 1280x1024 or 320x256");
+    else if (full) {  // the sensor's own (full) mode
+      const sim::StereoSensorSettings<float> sensor;
+      o.width = sensor.width, o.height = sensor.height;
     }
     if (o.runs < 1 || o.parts < 1 || o.jobs < 1 || o.max_failures < 1) throw std::invalid_argument("counts must be >= 1");
     if (!(o.fault_rate >= 0 && o.fault_rate <= 1)) throw std::invalid_argument("--fault-rate must be in [0, 1]");
