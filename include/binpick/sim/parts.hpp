@@ -205,7 +205,10 @@ PartModel<Scalar> make_part(PartType type) {
       // Standing on an end (x up or down; a pile leaves a few so, leaning on neighbours or a wall):
       // across the 11.7 mm thickness, approaching along x. The fingers (8 mm wide along y, centred)
       // stay clear of the latch at y > 7. Without these, binpick_sim (1280 x 1024, seed 1, 5 runs of
-      // 20) ended 2 of its 5 runs on standing connectors with no grasp within reach.
+      // 20) ended 2 of its 5 runs on standing connectors with no grasp within reach; with them it
+      // completed 96 % instead of 89 %. Their price, at 640 x 512 mostly: an estimate that takes a
+      // lying or half-hidden connector for a standing one now grips it end-on and misses (20 runs:
+      // 63 grips missed on the approach axis instead of 20; completed 90.0 % instead of 88.5 %).
       p.grasps = {detail::grasp<Scalar>(V3::Zero(), -Z, X, Scalar(21) * mm),
                   detail::grasp<Scalar>(V3::Zero(), Z, X, Scalar(21) * mm),
                   detail::grasp<Scalar>(V3::Zero(), -Y, X, Scalar(21) * mm),
@@ -236,7 +239,8 @@ PartModel<Scalar> make_part(PartType type) {
       // straight down): across the two faces (6.5 mm), approaching from the rim toward the axis. Every
       // 10° over one sixth of the rim; the hexagon's symmetry repeats them all round, so any rim
       // direction lies within 5° of one. The closing axis is the nut's own axis, which shows well in
-      // depth, not its turn about it, which does not (a flat nut's weak point).
+      // depth, not its turn about it, which does not (a flat nut's weak point). binpick_sim, seed 1:
+      // 95 % instead of 94 % at 1280 x 1024 (5 runs of 20); 80.0 % against 81.0 % at 640 x 512 (20 runs).
       for (int k = 0; k < 6; ++k) {
         const Scalar a = Scalar(k) * Scalar(M_PI / 18);
         p.grasps.push_back(detail::grasp<Scalar>(V3(0, 0, 3.25) * mm, V3(-std::cos(a), -std::sin(a), 0), Z, Scalar(6.5) * mm));
