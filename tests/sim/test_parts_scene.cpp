@@ -202,18 +202,14 @@ TEST(Parts, StandingPartsOfferAGraspFromAbove) {
     // approaching most nearly straight down.
     Isometry3f best = Isometry3f::Identity();
     float best_dot = -2;
-    for (const Eigen::Matrix3f& S : sim::detail::symmetry_rotations<float>(sim::detail::part_symmetry(type), 360)) {
-      Isometry3f T_sym = Isometry3f::Identity();
-      T_sym.linear() = S;
-      for (const auto& g : model.grasps) {
-        const Isometry3f T = part.T_base_part * T_sym * g.T_part_grasp;
-        const float d = T.linear().col(2).dot(-Eigen::Vector3f::UnitZ());
-        if (d > best_dot) {
-          best_dot = d;
-          best = T;
-        }
+    const auto symmetries = sim::detail::symmetry_rotations<float>(sim::detail::part_symmetry(type), 360);
+    sim::for_each_true_grasp(model, symmetries, part.T_base_part, [&](const Isometry3f& T) {
+      const float d = T.linear().col(2).dot(-Eigen::Vector3f::UnitZ());
+      if (d > best_dot) {
+        best_dot = d;
+        best = T;
       }
-    }
+    });
     ASSERT_GT(best_dot, std::cos(0.17f)) << part_type_name(type);
     const auto outcome = sim::evaluate_pick(scene, type, best, model.gripper, sim::widest_opening(model));
     EXPECT_EQ(outcome.status, sim::PickStatus::success) << part_type_name(type) << ": " << sim::to_string(outcome.status);

@@ -76,6 +76,19 @@ Scalar widest_opening(const PartModel<Scalar>& model) {
   return w;
 }
 
+/// Calls f(T_base_grasp) for every true grasp of a part of `model` lying at T_base_part: each
+/// registered grasp under each of `symmetries` (detail::symmetry_rotations of the part's symmetry,
+/// computed once by the caller; they fix the part origin). What evaluate_pick matches a pick against.
+template <typename Scalar, typename F>
+void for_each_true_grasp(const PartModel<Scalar>& model, const std::vector<Matrix3<Scalar>>& symmetries,
+                         const Isometry3<Scalar>& T_base_part, F&& f) {
+  for (const Matrix3<Scalar>& S : symmetries) {
+    Isometry3<Scalar> T_sym = Isometry3<Scalar>::Identity();
+    T_sym.linear() = S;
+    for (const auto& g : model.grasps) f(Isometry3<Scalar>(T_base_part * T_sym * g.T_part_grasp));
+  }
+}
+
 /// Judges a pick of a `type` part at T_base_grasp (gripper `kind`, jaw `opening` [m]) in `scene`.
 /// Throws std::invalid_argument naming `T_base_grasp` for an invalid pose.
 template <typename Scalar>
@@ -93,37 +106,32 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
     if (part.type != type) continue;
     if ((part.T_base_part.translation() - T_base_grasp.translation()).norm() > model.bounding_radius + settings.position_tolerance)
       continue;
-    for (const Matrix3<Scalar>& S : syms) {
-      Isometry3<Scalar> T_sym = Isometry3<Scalar>::Identity();
-      T_sym.linear() = S;  // symmetries fix the part origin
-      for (const auto& g : model.grasps) {
-        const Isometry3<Scalar> T_true = part.T_base_part * T_sym * g.T_part_grasp;
-        const Scalar dp = (T_true.translation() - T_base_grasp.translation()).norm();
-        const Scalar da = std::acos(std::clamp(T_true.linear().col(2).dot(a_est), Scalar(-1), Scalar(1)));
-        // Jaws are symmetric: x and −x close alike.
-        const Scalar dx = kind == cycle::GripperKind::two_finger
-                              ? std::acos(std::clamp(std::abs(T_true.linear().col(0).dot(x_est)), Scalar(0), Scalar(1)))
-                              : Scalar(0);
-        const Scalar near_cost = dp / settings.position_tolerance + (da + dx) / settings.angle_tolerance;
-        if (near_cost < nearest) {
-          nearest = near_cost;
-          out.nearest_position_error = dp;
-          out.nearest_angle_error = da;
-          out.nearest_closing_error = dx;
-          out.nearest_offset = T_base_grasp.translation() - T_true.translation();
-        }
-        if (dp > settings.position_tolerance || da > settings.angle_tolerance || dx > settings.angle_tolerance) continue;
-        const Scalar cost = dp / settings.position_tolerance + da / settings.angle_tolerance;
-        if (cost < best) {
-          best = cost;
-          out.part_index = int(i);
-          out.part_id = part.id;
-          out.position_error = dp;
-          out.angle_error = da;
-          out.closing_error = dx;
-        }
+    for_each_true_grasp(model, syms, part.T_base_part, [&](const Isometry3<Scalar>& T_true) {
+      const Scalar dp = (T_true.translation() - T_base_grasp.translation()).norm();
+      const Scalar da = std::acos(std::clamp(T_true.linear().col(2).dot(a_est), Scalar(-1), Scalar(1)));
+      // Jaws are symmetric: x and −x close alike.
+      const Scalar dx = kind == cycle::GripperKind::two_finger
+                            ? std::acos(std::clamp(std::abs(T_true.linear().col(0).dot(x_est)), Scalar(0), Scalar(1)))
+                            : Scalar(0);
+      const Scalar near_cost = dp / settings.position_tolerance + (da + dx) / settings.angle_tolerance;
+      if (near_cost < nearest) {
+        nearest = near_cost;
+        out.nearest_position_error = dp;
+        out.nearest_angle_error = da;
+        out.nearest_closing_error = dx;
+        out.nearest_offset = T_base_grasp.translation() - T_true.translation();
       }
-    }
+      if (dp > settings.position_tolerance || da > settings.angle_tolerance || dx > settings.angle_tolerance) return;
+      const Scalar cost = dp / settings.position_tolerance + da / settings.angle_tolerance;
+      if (cost < best) {
+        best = cost;
+        out.part_index = int(i);
+        out.part_id = part.id;
+        out.position_error = dp;
+        out.angle_error = da;
+        out.closing_error = dx;
+      }
+    });
   }
   if (out.part_index < 0) return out;
 
