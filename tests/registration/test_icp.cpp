@@ -110,9 +110,13 @@ void check_recovers_perturbation(Assoc assoc) {
   // with an accurate pose is acceptable, a failure status is not.
   RC_ASSERT(r.status == IcpStatus::converged || r.status == IcpStatus::max_iterations);
   // Projective partners sit on the same ray, kNN partners on a 2 mm pixel grid whose normals are
-  // blended at box creases: over 4000 generated cases each, kNN's worst was 0.53 mm / 0.28° (float),
-  // projective's 0.21 mm / 0.07° (median 0.009 mm / 0.004° both), from 5 mm / 2° starts.
-  const double max_et = assoc == Assoc::knn ? 1e-3 : 0.3e-3, max_er = (assoc == Assoc::knn ? 0.4 : 0.1) * kDeg;
+  // blended at box creases. From 5 mm / 2° starts, since a 2-cycle ends at its midpoint (icp.hpp):
+  // projective over 6000 generated cases median 0.007 mm / 0.003°, worst 0.16 mm and 0.054°; kNN over
+  // 6000 median 0.008 mm / 0.004°, worst 0.26 mm and 0.083° (minima of the kNN objective biased along a
+  // weakly held direction: converged in 3-5 iterations). Before, over 4000 each: kNN's worst 0.53 mm /
+  // 0.28°, projective's 0.21 mm / 0.07°. The bounds keep a margin over the worst: generated cases are
+  // new on every run.
+  const double max_et = assoc == Assoc::knn ? 0.5e-3 : 0.3e-3, max_er = (assoc == Assoc::knn ? 0.2 : 0.1) * kDeg;
   RC_ASSERT(et < max_et);
   RC_ASSERT(er < max_er);
 }
