@@ -40,7 +40,6 @@
 #include <type_traits>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
@@ -598,9 +597,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
   std::vector<std::ptrdiff_t>& partners = workspace.partners;
   const std::ptrdiff_t n = std::ptrdiff_t(fused ? strided : kept.size());  // points of the pass
   bool converged = false;
-  // The pose one update back: a 2-cycle ends the loop (below).
-  Eigen::Isometry3d T_before = T;
-  bool have_before = false;
+  Eigen::Isometry3d T_before = T;  // where the previous update started: a 2-cycle ends the loop (below)
 
   for (int it = 1; it <= settings.max_iterations; ++it) {
     // R p + t written out: Transform's operator* goes through homogeneous coordinates.
@@ -827,14 +824,15 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
       // line's direction is rotated, R a). Relative to the largest, as for point-to-plane, and to a
       // floor of rounding noise (points spread less than 1e-7 of their distance from the origin).
       const Eigen::Matrix3d C = acc.sqq / acc.w - mq * mq.transpose();
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> spread(C);
-      const Eigen::Vector3d lambda = spread.eigenvalues();  // ascending
+      Eigen::Vector3d lambda;  // ascending
+      Eigen::Matrix3d axes;
+      symmetric_eigen<3>(C, lambda, axes);
       const double lever_max = lambda(1) + lambda(2), floor = 1e-14 * mq.squaredNorm();
       if (!(lever_max > floor)) {
         R.setIdentity();
         result.degenerate_directions = 3;
       } else if (!(lambda(0) + lambda(1) > degeneracy * lever_max)) {
-        const Eigen::Vector3d a = spread.eigenvectors().col(2);  // the line
+        const Eigen::Vector3d a = axes.col(2);  // the line
         R = Eigen::Quaterniond::FromTwoVectors(a, R * a).toRotationMatrix();
         result.degenerate_directions = 1;
       }
@@ -858,8 +856,12 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
       result.T_target_source = T_target_source_init;
       return result;
     }
-    if (rotation_angle<double>(dT) < double(settings.rotation_epsilon) &&
-        (dT * c - c).norm() < double(settings.translation_epsilon)) {
+    // Does a move turn less than rotation_epsilon and shift the source centroid less than translation_epsilon?
+    const auto below_epsilons = [&](const Eigen::Isometry3d& d) {
+      return rotation_angle<double>(d) < double(settings.rotation_epsilon) &&
+             (d * c - c).norm() < double(settings.translation_epsilon);
+    };
+    if (below_epsilons(dT)) {
       converged = true;
       break;
     }
@@ -869,9 +871,7 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
     // generated pile, kNN: 0.023 mm from the truth at even counts, 0.115 mm at odd ones; the one
     // nearer the truth had the larger RMSE, so neither fit picks the better). Each pose's partners
     // pull it to the other, so the optimum lies between: the loop ends at their midpoint.
-    const Eigen::Isometry3d back = T * T_before.inverse(Eigen::Isometry);
-    if (have_before && rotation_angle<double>(back) < double(settings.rotation_epsilon) &&
-        (back * c - c).norm() < double(settings.translation_epsilon)) {
+    if (it > 1 && below_epsilons(T * T_before.inverse(Eigen::Isometry))) {
       const Eigen::Quaterniond qa(T_here.linear()), qb(T_before.linear());
       T.linear() = qa.slerp(0.5, qb).normalized().toRotationMatrix();
       T.translation() = 0.5 * (T_here.translation() + T_before.translation());
@@ -879,7 +879,6 @@ IcpResult<Scalar> icp_one_scale(const PointCloud<Scalar>& source, const Associat
       break;
     }
     T_before = T_here;
-    have_before = true;
   }
   result.T_target_source = rd::orthonormalized<Scalar>(T.cast<Scalar>());
   if (result.degenerate_directions > 0) result.status = IcpStatus::degenerate;
