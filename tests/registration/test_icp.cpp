@@ -231,6 +231,30 @@ TEST(Icp, CollinearPointToPointIsDegenerateAndDoesNotTurnAboutTheLine) {
   EXPECT_LT(r.rmse, 1e-6);
 }
 
+// The rotation the collinear case applies (only the line's direction turns): it takes a to b, is a
+// rotation, and is the smallest such (it leaves a × b alone), for random directions and for the near-
+// and exactly parallel and opposite ones.
+RC_GTEST_PROP(Icp, RotationBetweenTakesATobAboutTheirCross, ()) {
+  const auto unit = [] {
+    Eigen::Vector3d v;
+    for (int i = 0; i < 3; ++i) v(i) = double(*rc::gen::inRange(-1000, 1001)) / 1000.0;
+    RC_PRE(v.norm() > 0.1);
+    return Eigen::Vector3d(v.normalized());
+  };
+  const Eigen::Vector3d a = unit();
+  const int kind = *rc::gen::inRange(0, 4);
+  Eigen::Vector3d b = kind == 0 ? unit() : kind == 1 ? a : kind == 2 ? Eigen::Vector3d(-a) : Eigen::Vector3d(-a + 1e-7 * a.unitOrthogonal());
+  b.normalize();
+  const Eigen::Matrix3d R = binpick::registration_detail::rotation_between(a, b);
+  RC_ASSERT(R.allFinite());
+  RC_ASSERT((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() <= 1e-9);
+  RC_ASSERT(R.determinant() > 0);
+  RC_ASSERT((R * a - b).norm() <= 1e-9);
+  const Eigen::Vector3d axis = a.cross(b);
+  if (axis.norm() > 1e-6) RC_ASSERT((R * axis - axis).norm() <= 1e-9 * std::max(1.0, axis.norm()));
+  if (kind == 1) RC_ASSERT((R - Eigen::Matrix3d::Identity()).norm() <= 1e-12);
+}
+
 // The normal equations' eigen-decomposition (Jacobi) against its definition: A = V diag(λ) Vᵀ with V
 // orthonormal and λ ascending, on random symmetric 6 x 6 matrices of rank 0..6 and mixed scales (the
 // rotation and translation blocks of real normal equations differ by orders of magnitude).

@@ -343,44 +343,7 @@ class PickingPipeline {
   /// layout admits no predefined sensing path. The robot should stand still; the first cycle moves it
   /// to the home point above the bin.
   PickingPipeline(Robot& robot, Sensor& sensor, Estimator& estimator, Clock& clock, Gripper& gripper,
-                  const PipelineSettings<Scalar>& settings)
-      : robot_(&robot), sensor_(&sensor), estimator_(&estimator), clock_(&clock), gripper_(&gripper), s_(settings),
-        fuser_(sensor.camera()), rng_(settings.seed) {
-    const auto& s = settings;
-    require(s.num_views >= 1 && s.num_views <= 64, "num_views", "must be in [1, 64]");
-    require(std::isfinite(s.interval) && s.interval > 0, "interval", "must be finite and > 0");
-    for (Scalar p : {s.sensing_speed_percent, s.motion_speed_percent, s.grasp_speed_percent})
-      require(std::isfinite(p) && p > 0 && p <= 100, "speed_percent", "speeds must be in (0, 100]");
-    require(std::isfinite(s.full_speed) && s.full_speed > 0, "full_speed", "must be finite and > 0");
-    require(std::isfinite(s.full_angular_speed) && s.full_angular_speed > 0, "full_angular_speed", "must be finite and > 0");
-    require(std::isfinite(s.working_distance) && s.working_distance > 0, "working_distance", "must be finite and > 0");
-    require(std::isfinite(s.search_beta_factor) && s.search_beta_factor >= 1, "search_beta_factor", "must be >= 1");
-    require(std::isfinite(s.stop_time) && s.stop_time >= 0, "stop_time", "must be finite and >= 0");
-    require(std::isfinite(s.fixed_compute_time), "fixed_compute_time", "must be finite (< 0: measured)");
-    require(std::isfinite(s.max_stamp_offset) && s.max_stamp_offset > 0, "max_stamp_offset", "must be finite and > 0");
-    require(std::isfinite(s.lift_clearance) && s.lift_clearance >= 0, "lift_clearance", "must be finite and >= 0");
-    require(std::isfinite(s.approach_distance) && s.approach_distance >= 0, "approach_distance", "must be finite and >= 0");
-    require(std::isfinite(s.crop_floor) && s.crop_floor >= 0, "crop_floor", "must be finite and >= 0");
-    require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");
-    require(std::isfinite(s.retry_distance) && s.retry_distance >= 0, "retry_distance", "must be finite and >= 0");
-    require(std::isfinite(s.confident_percent) && s.confident_percent >= 0 && s.confident_percent <= 100, "confident_percent",
-            "must be in [0, 100]");
-    require(s.bin_length > 0 && s.bin_width > 0 && s.bin_height > 0, "bin_length", "bin sizes must be > 0");
-    require_all_finite(s.bin_center, "bin_center");
-    require_valid_pose(s.T_flange_camera, "T_flange_camera");
-    require_valid_pose(s.T_base_drop, "T_base_drop");
-    sensing_scheme_time(1, s.interval, s.takt);  // validates the takt constants
-    if (s.strategy == Strategy::single_view) s_.num_views = 1;
-    n_ = s_.num_views;
-    beta_ = beta_from_motion(n_);
-    T_home_ = Pose::Identity();
-    T_home_.linear() = Eigen::AngleAxis<Scalar>(Scalar(M_PI), Vec3::UnitX()).toRotationMatrix();
-    T_home_.translation() = s_.bin_center + Vec3(0, 0, s_.bin_height + s_.lift_clearance);
-    predefined_ = home_path(beta_, PathSource::predefined);
-    require(!predefined_.T_base_cameras.empty(), "settings", "the cell layout admits no predefined sensing path");
-    searches_in_turn_ = search_plans();
-    next_ = predefined_;
-  }
+                  const PipelineSettings<Scalar>& settings);
 
   const PipelineSettings<Scalar>& settings() const { return s_; }
   bool holding() const { return holding_; }
@@ -391,29 +354,7 @@ class PickingPipeline {
   int searches() const { return searches_; }
 
   /// One cycle (file comment). Never throws for driver failures: they are a status.
-  CycleResult<Scalar> run_cycle() {
-    CycleResult<Scalar> r;
-    r.index = cycles_++;
-    r.drop = s_.T_base_drop.translation();
-    try {
-      if (first_) {
-        // Bring the robot to the home point (not part of any cycle's takt).
-        const double arrival = robot_->move_along({cast_robot(T_home_)}, RobotScalar(s_.motion_speed_percent));
-        clock_->sleep_until(arrival);
-        first_ = false;
-        T_at_ = T_home_;
-      }
-      if (s_.strategy == Strategy::stop_and_go)
-        run_stop_and_go(r);
-      else
-        run_nonstop(r);
-    } catch (const CycleFailure& f) {
-      fail(r, f.status, f.what());
-    } catch (const std::exception& e) {
-      fail(r, CycleStatus::robot_failure, std::string("robot: ") + e.what());
-    }
-    return r;
-  }
+  CycleResult<Scalar> run_cycle();
 
  private:
   struct Plan {
@@ -1008,5 +949,75 @@ class PickingPipeline {
   int searches_in_row_ = 0;  ///< searches since the last grasp
   std::vector<Plan> searches_in_turn_;  ///< search_plans()
 };
+
+// The constructor and run_cycle() are defined out of the class so that they are not inline: an explicit
+// instantiation declaration (`extern template class PickingPipeline<...>;`) then keeps every translation
+// unit that includes it from instantiating the whole cycle (fusion, ICP, estimation, planning) again.
+template <typename Robot, typename Sensor, typename Estimator, typename Clock, typename Gripper>
+PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::PickingPipeline(Robot& robot, Sensor& sensor, Estimator& estimator,
+                                                                           Clock& clock, Gripper& gripper,
+                                                                           const PipelineSettings<Scalar>& settings)
+    : robot_(&robot), sensor_(&sensor), estimator_(&estimator), clock_(&clock), gripper_(&gripper), s_(settings),
+      fuser_(sensor.camera()), rng_(settings.seed) {
+  const auto& s = settings;
+  require(s.num_views >= 1 && s.num_views <= 64, "num_views", "must be in [1, 64]");
+  require(std::isfinite(s.interval) && s.interval > 0, "interval", "must be finite and > 0");
+  for (Scalar p : {s.sensing_speed_percent, s.motion_speed_percent, s.grasp_speed_percent})
+    require(std::isfinite(p) && p > 0 && p <= 100, "speed_percent", "speeds must be in (0, 100]");
+  require(std::isfinite(s.full_speed) && s.full_speed > 0, "full_speed", "must be finite and > 0");
+  require(std::isfinite(s.full_angular_speed) && s.full_angular_speed > 0, "full_angular_speed", "must be finite and > 0");
+  require(std::isfinite(s.working_distance) && s.working_distance > 0, "working_distance", "must be finite and > 0");
+  require(std::isfinite(s.search_beta_factor) && s.search_beta_factor >= 1, "search_beta_factor", "must be >= 1");
+  require(std::isfinite(s.stop_time) && s.stop_time >= 0, "stop_time", "must be finite and >= 0");
+  require(std::isfinite(s.fixed_compute_time), "fixed_compute_time", "must be finite (< 0: measured)");
+  require(std::isfinite(s.max_stamp_offset) && s.max_stamp_offset > 0, "max_stamp_offset", "must be finite and > 0");
+  require(std::isfinite(s.lift_clearance) && s.lift_clearance >= 0, "lift_clearance", "must be finite and >= 0");
+  require(std::isfinite(s.approach_distance) && s.approach_distance >= 0, "approach_distance", "must be finite and >= 0");
+  require(std::isfinite(s.crop_floor) && s.crop_floor >= 0, "crop_floor", "must be finite and >= 0");
+  require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");
+  require(std::isfinite(s.retry_distance) && s.retry_distance >= 0, "retry_distance", "must be finite and >= 0");
+  require(std::isfinite(s.confident_percent) && s.confident_percent >= 0 && s.confident_percent <= 100, "confident_percent",
+          "must be in [0, 100]");
+  require(s.bin_length > 0 && s.bin_width > 0 && s.bin_height > 0, "bin_length", "bin sizes must be > 0");
+  require_all_finite(s.bin_center, "bin_center");
+  require_valid_pose(s.T_flange_camera, "T_flange_camera");
+  require_valid_pose(s.T_base_drop, "T_base_drop");
+  sensing_scheme_time(1, s.interval, s.takt);  // validates the takt constants
+  if (s.strategy == Strategy::single_view) s_.num_views = 1;
+  n_ = s_.num_views;
+  beta_ = beta_from_motion(n_);
+  T_home_ = Pose::Identity();
+  T_home_.linear() = Eigen::AngleAxis<Scalar>(Scalar(M_PI), Vec3::UnitX()).toRotationMatrix();
+  T_home_.translation() = s_.bin_center + Vec3(0, 0, s_.bin_height + s_.lift_clearance);
+  predefined_ = home_path(beta_, PathSource::predefined);
+  require(!predefined_.T_base_cameras.empty(), "settings", "the cell layout admits no predefined sensing path");
+  searches_in_turn_ = search_plans();
+  next_ = predefined_;
+}
+
+template <typename Robot, typename Sensor, typename Estimator, typename Clock, typename Gripper>
+CycleResult<typename Sensor::Scalar> PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::run_cycle() {
+  CycleResult<Scalar> r;
+  r.index = cycles_++;
+  r.drop = s_.T_base_drop.translation();
+  try {
+    if (first_) {
+      // Bring the robot to the home point (not part of any cycle's takt).
+      const double arrival = robot_->move_along({cast_robot(T_home_)}, RobotScalar(s_.motion_speed_percent));
+      clock_->sleep_until(arrival);
+      first_ = false;
+      T_at_ = T_home_;
+    }
+    if (s_.strategy == Strategy::stop_and_go)
+      run_stop_and_go(r);
+    else
+      run_nonstop(r);
+  } catch (const CycleFailure& f) {
+    fail(r, f.status, f.what());
+  } catch (const std::exception& e) {
+    fail(r, CycleStatus::robot_failure, std::string("robot: ") + e.what());
+  }
+  return r;
+}
 
 }  // namespace binpick::cycle

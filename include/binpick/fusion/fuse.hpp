@@ -241,87 +241,11 @@ class Fuser {
   }
 
  private:
+  // Defined below the class, not inline, so that `extern template class Fuser<...>;` keeps a
+  // translation unit from instantiating the fusion (and the ICP it runs) again.
   void fuse_into(const Isometry3<Scalar>& T_base_target, const std::vector<DepthImageView<Scalar>>& views,
                  const std::vector<Isometry3<Scalar>>& T_base_views, std::size_t first_reprojected,
-                 const FusionSettings<Scalar>& settings, FusionResult<Scalar>& result) {
-    require(int(views.size()) <= kMaxFusionViews, "views", "more than kMaxFusionViews views");
-    require(std::isfinite(settings.sensor_accuracy) && settings.sensor_accuracy > Scalar(0), "sensor_accuracy",
-            "must be finite and > 0");
-    require(std::isfinite(settings.delta) && settings.delta >= Scalar(0), "delta", "must be finite and >= 0 (0 = 2 x accuracy)");
-    require(settings.min_votes >= 1, "min_votes", "must be >= 1");
-    const int threads = detail::resolve_num_threads(settings.num_threads);
-    require_valid_pose(T_base_target, "T_base_target");
-    for (std::size_t i = 0; i < views.size(); ++i) {
-      require(views[i].width() == camera_.width() && views[i].height() == camera_.height(), "views",
-              "a view's size differs from the camera's");
-      require_valid_pose(T_base_views[i], "T_base_views");
-    }
-
-    const int w = camera_.width(), h = camera_.height();
-    const std::size_t npix = std::size_t(w) * std::size_t(h);
-    const std::size_t nplanes = views.size();
-    planes_.resize(nplanes);
-    for (auto& p : planes_) p.resize(npix);
-
-    result.T_base_target = T_base_target;
-    result.views.assign(views.size(), FusionViewReport<Scalar>{});
-    const Isometry3<Scalar> T_target_base = T_base_target.inverse(Eigen::Isometry);
-    for (std::size_t i = 0; i < views.size(); ++i) {
-      result.views[i].T_base_view = T_base_views[i];
-      result.views[i].pose = i < first_reprojected ? ViewPose::reference : ViewPose::kinematic;
-    }
-    using clock = std::chrono::steady_clock;
-    const auto ms_since = [](clock::time_point t0) {
-      return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
-    };
-    auto t0 = clock::now();
-    if (settings.register_views && views.size() > 1) register_to_first(views, T_base_views, settings, threads, result);
-    result.registration_ms = ms_since(t0);
-    t0 = clock::now();
-
-    // Line 1 of Alg. 1: one plane per view (the target view decoded, the others reprojected). Views are
-    // independent, so threads take whole views and the result does not depend on the thread count.
-    const long nviews = long(nplanes);
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
-    for (long i = 0; i < nviews; ++i) {
-      Scalar* plane = planes_[std::size_t(i)].data();
-      const DepthImageView<Scalar>& view = views[std::size_t(i)];
-      result.views[std::size_t(i)].valid_pixels =
-          std::size_t(i) < first_reprojected
-              ? decode(view, plane)
-              : detail::reproject_to_plane(view, rays_,
-                                           Isometry3<Scalar>(T_target_base * result.views[std::size_t(i)].T_base_view),
-                                           camera_, plane);
-    }
-
-    result.reprojection_ms = ms_since(t0);
-    t0 = clock::now();
-
-    // Lines 2-10: vote per pixel; rows are independent.
-    std::vector<const Scalar*> ptrs(nplanes);
-    for (std::size_t i = 0; i < nplanes; ++i) ptrs[i] = planes_[i].data();
-    result.depth.resize(w, h);
-    std::uint8_t* vote_ptr = nullptr;
-    if (settings.compute_votes) {
-      result.votes.width = w;
-      result.votes.height = h;
-      result.votes.votes.resize(npix);  // the vote writes every pixel's count
-      vote_ptr = result.votes.votes.data();
-    } else {
-      result.votes = VoteMap{};
-    }
-    const Scalar delta = settings.effective_delta();
-    const long nrows = h;
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-    for (long v = 0; v < nrows; ++v) {
-      const std::size_t b = std::size_t(v) * std::size_t(w);
-      detail::vote_pixels(ptrs.data(), int(nplanes), b, b + std::size_t(w), delta, settings.min_votes,
-                          first_reprojected > 0, result.depth.data(), vote_ptr);
-    }
-
-    result.valid_pixels = result.depth.valid_count();
-    result.voting_ms = ms_since(t0);
-  }
+                 const FusionSettings<Scalar>& settings, FusionResult<Scalar>& result);
 
   // The projective target of the registration: view 1, decimated when the camera model allows it,
   // built in the kept buffers (register_to_first hands the cloud back).
@@ -428,6 +352,89 @@ class Fuser {
   OrganizedCloud<Scalar> ref_cloud_;   // its cloud and normals, lent to the association each fusion
   std::vector<AlignWorkspace<Scalar>> align_;  // one per registered view: source clouds, ICP scratch
 };
+
+template <typename Scalar, typename Camera>
+void Fuser<Scalar, Camera>::fuse_into(const Isometry3<Scalar>& T_base_target, const std::vector<DepthImageView<Scalar>>& views,
+                                      const std::vector<Isometry3<Scalar>>& T_base_views, std::size_t first_reprojected,
+                                      const FusionSettings<Scalar>& settings, FusionResult<Scalar>& result) {
+  require(int(views.size()) <= kMaxFusionViews, "views", "more than kMaxFusionViews views");
+  require(std::isfinite(settings.sensor_accuracy) && settings.sensor_accuracy > Scalar(0), "sensor_accuracy",
+          "must be finite and > 0");
+  require(std::isfinite(settings.delta) && settings.delta >= Scalar(0), "delta", "must be finite and >= 0 (0 = 2 x accuracy)");
+  require(settings.min_votes >= 1, "min_votes", "must be >= 1");
+  const int threads = detail::resolve_num_threads(settings.num_threads);
+  require_valid_pose(T_base_target, "T_base_target");
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    require(views[i].width() == camera_.width() && views[i].height() == camera_.height(), "views",
+            "a view's size differs from the camera's");
+    require_valid_pose(T_base_views[i], "T_base_views");
+  }
+
+  const int w = camera_.width(), h = camera_.height();
+  const std::size_t npix = std::size_t(w) * std::size_t(h);
+  const std::size_t nplanes = views.size();
+  planes_.resize(nplanes);
+  for (auto& p : planes_) p.resize(npix);
+
+  result.T_base_target = T_base_target;
+  result.views.assign(views.size(), FusionViewReport<Scalar>{});
+  const Isometry3<Scalar> T_target_base = T_base_target.inverse(Eigen::Isometry);
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    result.views[i].T_base_view = T_base_views[i];
+    result.views[i].pose = i < first_reprojected ? ViewPose::reference : ViewPose::kinematic;
+  }
+  using clock = std::chrono::steady_clock;
+  const auto ms_since = [](clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+  };
+  auto t0 = clock::now();
+  if (settings.register_views && views.size() > 1) register_to_first(views, T_base_views, settings, threads, result);
+  result.registration_ms = ms_since(t0);
+  t0 = clock::now();
+
+  // Line 1 of Alg. 1: one plane per view (the target view decoded, the others reprojected). Views are
+  // independent, so threads take whole views and the result does not depend on the thread count.
+  const long nviews = long(nplanes);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
+  for (long i = 0; i < nviews; ++i) {
+    Scalar* plane = planes_[std::size_t(i)].data();
+    const DepthImageView<Scalar>& view = views[std::size_t(i)];
+    result.views[std::size_t(i)].valid_pixels =
+        std::size_t(i) < first_reprojected
+            ? decode(view, plane)
+            : detail::reproject_to_plane(view, rays_,
+                                         Isometry3<Scalar>(T_target_base * result.views[std::size_t(i)].T_base_view),
+                                         camera_, plane);
+  }
+
+  result.reprojection_ms = ms_since(t0);
+  t0 = clock::now();
+
+  // Lines 2-10: vote per pixel; rows are independent.
+  std::vector<const Scalar*> ptrs(nplanes);
+  for (std::size_t i = 0; i < nplanes; ++i) ptrs[i] = planes_[i].data();
+  result.depth.resize(w, h);
+  std::uint8_t* vote_ptr = nullptr;
+  if (settings.compute_votes) {
+    result.votes.width = w;
+    result.votes.height = h;
+    result.votes.votes.resize(npix);  // the vote writes every pixel's count
+    vote_ptr = result.votes.votes.data();
+  } else {
+    result.votes = VoteMap{};
+  }
+  const Scalar delta = settings.effective_delta();
+  const long nrows = h;
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  for (long v = 0; v < nrows; ++v) {
+    const std::size_t b = std::size_t(v) * std::size_t(w);
+    detail::vote_pixels(ptrs.data(), int(nplanes), b, b + std::size_t(w), delta, settings.min_votes,
+                        first_reprojected > 0, result.depth.data(), vote_ptr);
+  }
+
+  result.valid_pixels = result.depth.valid_count();
+  result.voting_ms = ms_since(t0);
+}
 
 /// One-shot fusion (builds a Fuser; keep a Fuser instead when fusing every cycle).
 template <typename Scalar, typename Camera>
