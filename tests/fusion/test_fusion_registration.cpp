@@ -10,6 +10,7 @@
 
 #include "binpick/fusion.hpp"
 #include "binpick/sim/box_scene.hpp"
+#include "sim_instances.hpp"  // Fuser<float / double, pinhole>, compiled once
 #include "test_support.hpp"
 
 using namespace binpick;

@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "binpick/fusion.hpp"
+#include "sim_instances.hpp"  // Fuser<float / double, pinhole>, compiled once
 #include "synthetic_views.hpp"
 
 #if __has_include("binpick/registration/icp.hpp")
