@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -135,10 +136,22 @@ inline AnalyticScene random_scene() {
   return s;
 }
 
-/// The test camera: 160×120, about 56° × 43° field of view.
+/// The test camera: 160k × 120k pixels, about 56° × 43° field of view whatever k (>= 1): a pixel
+/// spans 2 mm / k at 0.3 m. k = 1 keeps most properties cheap; k = 2 is closer to a real sensor
+/// (640 × 480 over the same view spans 0.5 mm).
 template <typename Scalar>
-PinholeCamera<Scalar> test_camera() {
-  return PinholeCamera<Scalar>(Scalar(150), Scalar(150), Scalar(79.5), Scalar(59.5), 160, 120);
+PinholeCamera<Scalar> test_camera(int k = 1) {
+  if (k < 1) throw std::invalid_argument("test_camera: k must be >= 1");
+  return PinholeCamera<Scalar>(Scalar(150 * k), Scalar(150 * k), Scalar((160 * k - 1) / 2.0), Scalar((120 * k - 1) / 2.0),
+                               160 * k, 120 * k);
+}
+
+/// The test camera that rendered `depth` (its width tells k).
+template <typename Scalar>
+PinholeCamera<Scalar> test_camera_of(const DepthImage<Scalar>& depth) {
+  if (depth.width() % 160 != 0 || depth.height() * 4 != depth.width() * 3)
+    throw std::invalid_argument("test_camera_of: depth is not a test_camera image");
+  return test_camera<Scalar>(depth.width() / 160);
 }
 
 /// Translation [m] and rotation [rad] of A B⁻¹ (the error of A against B).
