@@ -10,6 +10,16 @@
 
 #include "binpick/core/errors.hpp"
 
+/// BINPICK_OMP(parallel for ...) is `#pragma omp parallel for ...` with OpenMP and nothing without:
+/// a bare `#pragma omp` in a header warns (-Wall's -Wunknown-pragmas) in every project that includes
+/// it without OpenMP.
+#define BINPICK_DETAIL_PRAGMA_STRING(...) #__VA_ARGS__
+#ifdef _OPENMP
+#define BINPICK_OMP(...) _Pragma(BINPICK_DETAIL_PRAGMA_STRING(omp __VA_ARGS__))
+#else
+#define BINPICK_OMP(...)
+#endif
+
 namespace binpick {
 namespace detail {
 

@@ -293,7 +293,7 @@ class Fuser {
     // An exception must not leave a parallel region: kept per view, the first rethrown after it.
     std::vector<std::exception_ptr> errors(static_cast<std::size_t>(nreg));
     if (align_.size() < std::size_t(nreg)) align_.resize(std::size_t(nreg));
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1 && nreg > 1)
+    BINPICK_OMP(parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1 && nreg > 1))
     for (long k = 0; k < nreg; ++k) {
       const std::size_t i = std::size_t(k) + 1;
       try {
@@ -395,7 +395,7 @@ void Fuser<Scalar, Camera>::fuse_into(const Isometry3<Scalar>& T_base_target, co
   // Line 1 of Alg. 1: one plane per view (the target view decoded, the others reprojected). Views are
   // independent, so threads take whole views and the result does not depend on the thread count.
   const long nviews = long(nplanes);
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
+  BINPICK_OMP(parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1))
   for (long i = 0; i < nviews; ++i) {
     Scalar* plane = planes_[std::size_t(i)].data();
     const DepthImageView<Scalar>& view = views[std::size_t(i)];
@@ -425,7 +425,7 @@ void Fuser<Scalar, Camera>::fuse_into(const Isometry3<Scalar>& T_base_target, co
   }
   const Scalar delta = settings.effective_delta();
   const long nrows = h;
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+  BINPICK_OMP(parallel for schedule(static) num_threads(threads) if (threads > 1))
   for (long v = 0; v < nrows; ++v) {
     const std::size_t b = std::size_t(v) * std::size_t(w);
     detail::vote_pixels(ptrs.data(), int(nplanes), b, b + std::size_t(w), delta, settings.min_votes,

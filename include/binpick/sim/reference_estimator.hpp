@@ -355,7 +355,7 @@ class ReferenceEstimator {
 #ifndef _OPENMP
     (void)threads;
 #endif
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
+    BINPICK_OMP(parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1))
     for (long c = 0; c < n; ++c) best[std::size_t(c)] = fit_candidate(grid, cam, candidates[std::size_t(c)], starts[std::size_t(c)]);
     out.hypotheses = std::accumulate(starts.begin(), starts.end(), 0);
 

@@ -34,13 +34,10 @@
 #include <limits>
 #include <vector>
 
-#ifdef _OPENMP
-#include <omp.h>
-#endif
-
 #include "binpick/core/camera_model.hpp"
 #include "binpick/core/depth_image.hpp"
 #include "binpick/core/errors.hpp"
+#include "binpick/core/parallel.hpp"
 #include "binpick/core/pose.hpp"
 #include "binpick/sim/detail/random.hpp"
 #include "binpick/sim/parts.hpp"
@@ -301,13 +298,8 @@ class StereoSensor {
     part.assign(N, -1);
     const std::uint64_t key = sim::detail::hash_keys(s_.seed, frame_index);
 
-    int threads = s_.num_threads;
-#ifdef _OPENMP
-    if (threads == 0) threads = omp_get_num_procs();
-#else
-    threads = 1;
+    const int threads = binpick::detail::resolve_num_threads(s_.num_threads);
     (void)threads;  // no parallel region without OpenMP
-#endif
     // Speckle: one log-normal factor per camera and grid cell of the left image (SENSOR_MODEL step 3).
     const int cell = scaled_px(s_.errors.speckle_cell_px);
     const int gw = (W + cell - 1) / cell, gh = (H + cell - 1) / cell;
@@ -322,7 +314,7 @@ class StereoSensor {
     }
     const PixelContext ctx{geo, T_base_camera, T_base_camera.inverse(Eigen::Isometry), key, cell, gw, speckle.data(),
                            speckle.data() + std::size_t(gw) * std::size_t(gh)};
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
+    BINPICK_OMP(parallel for num_threads(threads) schedule(dynamic, 4))
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) shade_pixel(ctx, u, v, f.depth, truth, status, part);
 

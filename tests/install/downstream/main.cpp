@@ -12,6 +12,11 @@ int main() {
   std::vector<binpick::Isometry3f> poses(2, binpick::Isometry3f::Identity());
   const auto r = binpick::fuse(views, poses, camera);
   const float d = r.depth.at(10, 10);
-  std::printf("fused depth %.4f m\n", d);
+#ifdef _OPENMP
+  const char* openmp = "on";
+#else
+  const char* openmp = "off";
+#endif
+  std::printf("fused depth %.4f m, openmp %s\n", d, openmp);
   return (d > 0.2999f && d < 0.3011f) ? 0 : 1;
 }
