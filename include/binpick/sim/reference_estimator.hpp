@@ -352,9 +352,7 @@ class ReferenceEstimator {
     std::vector<int> starts(candidates.size(), 0);
     const int threads = binpick::detail::resolve_num_threads(s_.num_threads);
     const long n = long(candidates.size());
-#ifndef _OPENMP
-    (void)threads;
-#endif
+    (void)threads;  // no parallel region without OpenMP
     BINPICK_OMP(parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1))
     for (long c = 0; c < n; ++c) best[std::size_t(c)] = fit_candidate(grid, cam, candidates[std::size_t(c)], starts[std::size_t(c)]);
     out.hypotheses = std::accumulate(starts.begin(), starts.end(), 0);
