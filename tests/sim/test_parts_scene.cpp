@@ -337,3 +337,29 @@ TEST(Scene, RemovingAPartLetsThoseOnItSettle) {
   EXPECT_GT(dropped, 0) << "nothing settled after removing its support";
   expect_valid_pile(scene, true);
 }
+
+// A part left alone rests as it would if dropped alone at the same place and orientation: a part that
+// leaned on a removed neighbour with one end on the floor keeps its height, and had to be settled
+// again by the removal (before, 20 of 350 such parts, all types, stood leaning on nothing).
+TEST(Scene, APartLeftAloneRestsAsIfDroppedAlone) {
+  int checked = 0;
+  for (int type = 0; type < kNumPartTypes; ++type)
+    for (std::uint64_t seed = 1; seed <= 5; ++seed)
+      for (int keep : {1, 9, 15, 18}) {
+        SceneSettings<double> s;
+        s.part_type = PartType(type);
+        auto scene = Scene<double>::generate(s, seed);
+        for (int id = 0; id < s.num_parts; ++id)
+          if (id != keep) ASSERT_TRUE(scene.remove_part(id));
+        ASSERT_EQ(scene.parts().size(), 1u);
+        const auto& left = scene.parts()[0].T_base_part;
+        SceneSettings<double> none = s;
+        none.num_parts = 0;
+        auto alone = Scene<double>::generate(none, seed);
+        alone.add_part(PartType(type), left.linear(), left.translation().head<2>());
+        EXPECT_NEAR(left.translation().z(), alone.parts()[0].T_base_part.translation().z(), 5e-4)
+            << part_type_name(PartType(type)) << " seed " << seed << " part " << keep;
+        ++checked;
+      }
+  EXPECT_EQ(checked, kNumPartTypes * 5 * 4);
+}

@@ -116,17 +116,24 @@ class Scene {
 
   /// Removes the part with `id` and lets the parts placed after it settle. Returns false when no part
   /// has that id.
+  ///
+  /// A part settles again when it drops, and also when it touched the removed part or one that moved:
+  /// a part leaning on a neighbour with one end on the floor keeps its height when the neighbour goes
+  /// (the floor contact sets it), and without a new settle it would stand leaning on nothing.
   bool remove_part(int id) {
     std::size_t k = 0;
     while (k < parts_.size() && parts_[k].id != id) ++k;
     if (k == parts_.size()) return false;
+    std::vector<CollisionSphere<Scalar>> gone = world_[k];  // where support may have been lost
     parts_.erase(parts_.begin() + std::ptrdiff_t(k));
     world_.erase(world_.begin() + std::ptrdiff_t(k));
     for (std::size_t j = k; j < parts_.size(); ++j) {
-      const Scalar z_before = parts_[j].T_base_part.translation().z();
-      const Scalar z = drop(parts_[j].type, parts_[j].T_base_part.linear(), xy_of(parts_[j]), j);
+      const Isometry3<Scalar> T_before = parts_[j].T_base_part;
+      const Scalar z = drop(parts_[j].type, T_before.linear(), xy_of(parts_[j]), j);
       parts_[j].T_base_part.translation().z() = z;
-      if (z < z_before - Scalar(1e-6)) settle(parts_[j], j);  // it lost its support: settle again
+      if (z < T_before.translation().z() - Scalar(1e-6) || touches(world_[j], gone)) settle(parts_[j], j);
+      if (!parts_[j].T_base_part.isApprox(T_before, Scalar(1e-6)))
+        gone.insert(gone.end(), world_[j].begin(), world_[j].end());
       world_[j] = world_spheres(parts_[j]);
     }
     ++revision_;
@@ -236,6 +243,16 @@ class Scene {
       }
     }
     return z;
+  }
+
+  /// Whether two sets of spheres touch (within 0.1 mm: resting contact is exact up to rounding).
+  static bool touches(const std::vector<CollisionSphere<Scalar>>& a, const std::vector<CollisionSphere<Scalar>>& b) {
+    for (const auto& s : a)
+      for (const auto& t : b) {
+        const Scalar r = s.radius + t.radius + Scalar(1e-4);
+        if ((s.centre - t.centre).squaredNorm() < r * r) return true;
+      }
+    return false;
   }
 
   /// Drops p at its orientation and (clamped) xy as the part number `index`, then settles it.
