@@ -168,6 +168,7 @@ struct OracleEstimator {
         o.T_camera_object = T_cam_base * p.T_base_part;
         o.T_camera_grasp = T_cam_base * G;
         o.confidence_percent = S(50) + S(1000) * p.T_base_part.translation().z();  // top parts first
+        o.gripper = m.gripper;
         if (weak_clear_top) {
           const bool top = std::all_of(scene->parts().begin(), scene->parts().end(), [&](const auto& q) {
             return q.T_base_part.translation().z() <= p.T_base_part.translation().z();
@@ -185,6 +186,17 @@ struct OracleEstimator {
     return r;
   }
 };
+
+// Expects f to throw std::invalid_argument naming `name`.
+template <typename F>
+void expect_invalid_argument(F&& f, const std::string& name) {
+  try {
+    f();
+    ADD_FAILURE() << "accepted a bad " << name;
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'" + name + "'"), std::string::npos) << e.what();
+  }
+}
 
 struct TestCell {
   using Pipeline = cycle::PickingPipeline<TestRobot, TestSensor, OracleEstimator, sim::SimClock, simcell::SimGripper<S>>;
@@ -467,6 +479,14 @@ TEST(Pipeline, RejectsBadSettings) {
   ps.sensing_speed_percent = 120;
   EXPECT_THROW(TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps), std::invalid_argument);
   ps = {};
+  ps.tool_margin = -0.001f;
+  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
+                          "tool_margin");
+  ps = {};
+  ps.jaw_tool.hi.x() = std::numeric_limits<S>::infinity();
+  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
+                          "jaw_tool");
+  ps = {};
   ps.fixed_compute_time = std::numeric_limits<double>::quiet_NaN();
   try {
     TestCell::Pipeline p(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps);
@@ -552,6 +572,109 @@ TEST(Pipeline, PicksAPartLyingBesideALongWall) {
       picked = r.status == cycle::CycleStatus::picked;
     }
     EXPECT_TRUE(picked) << "wall " << wall << ": the part at (" << xy.x() << ", " << xy.y() << ") was never picked";
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The known bin against the tool (bin_volume.hpp)
+
+namespace {
+// Whether any of a grid of points of `box` at T stands in the bin, with the walls and the floor moved
+// `tol` inward (the reference for the exact check).
+bool sampled_hit(const cycle::ToolBox<double>& box, const Isometry3<double>& T, const cycle::BinVolume<double>& bin,
+                 double tol, int n) {
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j)
+      for (int k = 0; k <= n; ++k) {
+        const Vector3<double> f(double(i) / n, double(j) / n, double(k) / n);
+        const Vector3<double> d = T * (box.lo + (box.hi - box.lo).cwiseProduct(f)) - bin.floor_center;
+        if (d.z() < tol) return true;
+        if (d.z() <= bin.height + tol && (std::abs(d.x()) > bin.length / 2 - tol || std::abs(d.y()) > bin.width / 2 - tol))
+          return true;
+      }
+  return false;
+}
+
+}  // namespace
+
+// The exact box check agrees with a dense sampling of the box: a sampled point in the bin's walls or
+// floor means blocked, and blocked means a sampled point within a grid cell of them.
+RC_GTEST_PROP(BinVolume, ToolBoxCheckAgreesWithSampling, ()) {
+  cycle::BinVolume<double> bin;
+  bin.floor_center = Vector3<double>(*rc::gen::inRange(-100, 100) * 1e-3, *rc::gen::inRange(-100, 100) * 1e-3,
+                                     *rc::gen::inRange(-50, 50) * 1e-3);
+  bin.length = *rc::gen::inRange(100, 600) * 1e-3;
+  bin.width = *rc::gen::inRange(100, 400) * 1e-3;
+  bin.height = *rc::gen::inRange(30, 150) * 1e-3;
+  cycle::ToolBox<double> box;
+  box.hi = Vector3<double>(*rc::gen::inRange(1, 40), *rc::gen::inRange(1, 40), *rc::gen::inRange(0, 5)) * 1e-3;
+  box.lo = -Vector3<double>(*rc::gen::inRange(1, 40), *rc::gen::inRange(1, 40), *rc::gen::inRange(1, 60)) * 1e-3;
+  Isometry3<double> T = Isometry3<double>::Identity();
+  const Vector3<double> axis(*rc::gen::inRange(-100, 101), *rc::gen::inRange(-100, 101), *rc::gen::inRange(1, 101));
+  T.linear() = Eigen::AngleAxisd(*rc::gen::inRange(0, 180) * M_PI / 180, axis.normalized()).toRotationMatrix();
+  // Anywhere from the middle of the bin to beyond its walls, from below the floor to above the top.
+  const double fx = *rc::gen::inRange(-60, 61) / 100.0, fy = *rc::gen::inRange(-60, 61) / 100.0;
+  T.translation() = bin.floor_center + Vector3<double>(fx * bin.length, fy * bin.width, *rc::gen::inRange(-10, 200) * 1e-3);
+  const bool clear = cycle::tool_clear_of_bin(box, T, bin);
+  const int n = 24;
+  const double cell = (box.hi - box.lo).norm() / n;
+  if (sampled_hit(box, T, bin, 0, n)) RC_ASSERT(!clear);
+  if (!clear) RC_ASSERT(sampled_hit(box, T, bin, cell, n));
+  RC_TAG(clear ? "clear" : "blocked");
+}
+
+TEST(BinVolume, MarginsUnknownBinsAndBadSizes) {
+  cycle::BinVolume<double> bin;
+  bin.length = 0.5;
+  bin.width = 0.25;
+  bin.height = 0.1;
+  const auto jaws = cycle::jaw_tool_box(0.020, 0.004, 0.008, 0.030);  // reaches 14 mm along x
+  Isometry3<double> T = Isometry3<double>::Identity();
+  T.linear() = Eigen::AngleAxisd(M_PI, Vector3<double>::UnitX()).toRotationMatrix();  // approach down
+  T.translation() = Vector3<double>(0.25 - 0.015, 0, 0.035);  // 1 mm between the finger and the wall
+  EXPECT_TRUE(cycle::tool_clear_of_bin(jaws, T, bin));
+  EXPECT_FALSE(cycle::tool_clear_of_bin(jaws, T, bin, 0.002));
+  T.translation().z() = 0.02;  // the tips 20 mm above the floor, the box reaches down: fine
+  EXPECT_TRUE(cycle::tool_clear_of_bin(jaws, T, bin));
+  T.translation().z() = -0.001;  // tips below the floor
+  EXPECT_FALSE(cycle::tool_clear_of_bin(jaws, T, bin));
+  T.translation() = Vector3<double>(0.25 - 0.010, 0, 0.035);  // a finger in the wall
+  EXPECT_FALSE(cycle::tool_clear_of_bin(jaws, T, bin));
+  EXPECT_TRUE(bin.blocks(T * Vector3<double>(0.013, 0, 0)));
+  EXPECT_FALSE(bin.blocks(T * Vector3<double>(0.003, 0, 0)));
+  T.translation().z() = 0.1 + 0.031;  // the whole tool above the wall top
+  EXPECT_TRUE(cycle::tool_clear_of_bin(jaws, T, bin));
+  EXPECT_TRUE(cycle::tool_clear_of_bin(cycle::ToolBox<double>{}, Isometry3<double>::Identity(), bin));  // empty box
+  EXPECT_TRUE(cycle::tool_clear_of_bin(jaws, T, cycle::BinVolume<double>{}));                          // no bin
+  EXPECT_FALSE(cycle::BinVolume<double>{}.blocks(Vector3<double>(0, 0, -1)));
+  expect_invalid_argument([] { cycle::jaw_tool_box(-0.01, 0.004, 0.008, 0.03); }, "stroke");
+  expect_invalid_argument([] { cycle::jaw_tool_box(0.02, 0.004, std::nan(""), 0.03); }, "finger_width");
+  expect_invalid_argument([] { cycle::cup_tool_box(0.005, -1.0); }, "length");
+}
+
+// A grasp whose cup would stand in a wall is not tried, even when the estimator (here the oracle,
+// which checks nothing) offers it: the cycle grips nothing. Without the check the grip is tried and
+// the simulated world judges it a bin collision.
+TEST(Pipeline, AGraspWhoseToolStandsInAWallIsNotTried) {
+  for (const bool check : {true, false}) {
+    TestCell cell(0, cycle::Strategy::ours);
+    // A circle nut 1 mm from the short wall at +x; its first grasp (on the annulus, 7 mm towards +x)
+    // puts the 5 mm cup 1 mm into the wall.
+    const S hx = S(0.25) - S(0.010) - S(0.001);
+    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(hx, 0.02f));
+    auto ps = cell.pipeline->settings();
+    if (!check) ps.cup_tool = ps.jaw_tool = {};
+    cell.pipeline = std::make_unique<TestCell::Pipeline>(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps);
+    const auto r = cell.pipeline->run_cycle();
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_EQ(r.recognized, 1);
+    if (check) {
+      EXPECT_EQ(r.status, cycle::CycleStatus::nothing_recognized);
+    } else {
+      EXPECT_EQ(r.status, cycle::CycleStatus::grasp_failed);
+      EXPECT_EQ(cell.gripper->last_status(), sim::PickStatus::bin_collision);
+    }
+    EXPECT_EQ(cell.scene.parts().size(), 1u);
   }
 }
 

@@ -680,6 +680,23 @@ TEST(ReferenceEstimator, GripperCheckSeesWallsInTheObstacleDepth) {
   EXPECT_TRUE(seeing.objects[0].grasp_clear);
   EXPECT_GT(cell.fingers_in_wall(blind.objects[0], es.gripper), 10);
   EXPECT_EQ(cell.fingers_in_wall(seeing.objects[0], es.gripper), 0);
+  // The known bin (EstimatorInput::bin) instead of the obstacle depth. Lying against the wall, every
+  // grasp of the coupler puts a finger in the wall or the floor; the depth alone does not show it
+  // (its choice above hits the bin too), the known bin does: no grasp is clear.
+  EXPECT_EQ(judge(seeing.objects[0]), PickStatus::bin_collision);
+  in.obstacles = DepthImageView<float>();
+  in.bin.length = scene.bin().length;
+  in.bin.width = scene.bin().width;
+  in.bin.height = scene.bin().wall_height;
+  in.T_base_camera = T_base_camera;
+  const auto knowing = est.estimate(in);
+  ASSERT_EQ(knowing.objects.size(), 1u);
+  EXPECT_FALSE(knowing.objects[0].grasp_clear);
+  // The same bin believed 5 cm further along x: the grasp from above is clear to the estimator.
+  in.T_base_camera.translation().x() -= 0.05f;
+  const auto elsewhere = est.estimate(in);
+  ASSERT_EQ(elsewhere.objects.size(), 1u);
+  EXPECT_TRUE(elsewhere.objects[0].grasp_clear);
   DepthImage<float> small(10, 10);
   in.obstacles = small.view();
   EXPECT_THROW(est.estimate(in), std::invalid_argument);

@@ -190,6 +190,13 @@ struct Cell {
     sim::ReferenceEstimatorSettings<S> es;
     es.num_threads = o.threads;
     es.gripper.approach_opening = sim::widest_opening(scene.model(o.part));  // as SimGripper opens
+    // The pipeline's check against the known bin: the gripper the judge and the estimator model.
+    const auto& g = es.gripper;
+    ps.jaw_tool = cycle::jaw_tool_box(g.approach_opening + 2 * g.finger_clearance, g.finger_thickness, g.finger_width,
+                                      g.finger_length);
+    ps.jaw_tool.lo.z() += g.tip_depth;  // the fingers' tips sit tip_depth past the grasp point
+    ps.jaw_tool.hi.z() += g.tip_depth;
+    ps.cup_tool = cycle::cup_tool_box(g.cup_radius, g.cup_length);
     // Weak fits are reported too; the pipeline grasps them only when no confident object offers a
     // grasp (PipelineSettings::confident_percent, at the estimator's default threshold).
     ps.confident_percent = es.min_confidence;

@@ -24,6 +24,7 @@
 #include "binpick/core/camera_model.hpp"
 #include "binpick/core/depth_image.hpp"
 #include "binpick/core/pose.hpp"
+#include "binpick/cycle/bin_volume.hpp"
 
 namespace binpick::cycle {
 
@@ -42,6 +43,12 @@ struct EstimatorInput {
   /// Optional: the same view before any region-of-interest crop (depth's size), where an estimator
   /// that checks its grasps for collisions finds the walls and floor the crop removed; empty = `depth`.
   DepthImageView<Scalar> obstacles;
+  /// Optional: the bin, known to the cell (base frame), and the camera's pose in the base frame
+  /// (kinematics). An estimator that checks its grasps for collisions rejects those whose gripper
+  /// would stand in a wall or the floor (BinVolume::blocks), which a view from above barely
+  /// measures. Unknown (length 0) by default.
+  BinVolume<Scalar> bin;
+  Isometry3<Scalar> T_base_camera = Isometry3<Scalar>::Identity();
 };
 
 /// One recognized object.

@@ -17,8 +17,9 @@
 ///     *remaining* objects, Alg. 2) and the next dropping path. At C the part is released; the robot
 ///     waits only if processing is not done yet;
 ///  3. grasp: C → above the grasp pose → grasp (A) → lift to the next pull-up point B.
-/// The object to grasp: the most confident one whose grasp the estimator found clear and that lies away
-/// from the grips that failed since the last success; objects below `confident_percent` only when no
+/// The object to grasp: the most confident one whose grasp the estimator found clear, whose tool keeps
+/// clear of the known bin (`jaw_tool`, bin_volume.hpp) and that lies away from the grips that failed
+/// since the last success; objects below `confident_percent` only when no
 /// other offers a grasp at all; an object whose grasp the estimator found blocked never, unless
 /// `grasp_blocked`. The first cycle uses a predefined path (Alg. 2 aimed at the bin centre
 /// from a home point above it). When nothing is recognized (or no grasp is reachable) the next cycle
@@ -71,6 +72,7 @@
 #include "binpick/active_vision/target_center.hpp"
 #include "binpick/core/errors.hpp"
 #include "binpick/core/pose.hpp"
+#include "binpick/cycle/bin_volume.hpp"
 #include "binpick/cycle/drivers.hpp"
 #include "binpick/cycle/gripper.hpp"
 #include "binpick/cycle/takt.hpp"
@@ -153,6 +155,16 @@ struct PipelineSettings {
   /// Grasp points lower than this above the bin floor are not chosen: fingers or cup would hit the
   /// floor, and no part lying on it is grasped that low (such fits are ghosts or floor pieces) [m].
   Scalar min_grasp_height = Scalar(0.002);
+  /// The space the tool takes at a grasp, per gripper kind (bin_volume.hpp). A grasp whose tool would
+  /// stand in the bin's floor or walls (bin_center, bin_length, bin_width, bin_height), or come within
+  /// `tool_margin` of the walls, is never chosen, whatever the estimator found: it checks measured
+  /// depth, which barely shows a wall's inner face. The bin also goes to the estimator
+  /// (EstimatorInput::bin), so that it picks among an object's grasps one that keeps clear. Defaults:
+  /// jaws of 25 mm stroke with fingers 4 × 8 × 30 mm; a cup of 5 mm radius, 40 mm long with its stem.
+  /// An empty box: no check for that kind.
+  ToolBox<Scalar> jaw_tool = jaw_tool_box(Scalar(0.025), Scalar(0.004), Scalar(0.008), Scalar(0.030));
+  ToolBox<Scalar> cup_tool = cup_tool_box(Scalar(0.005), Scalar(0.040));
+  Scalar tool_margin = Scalar(0);  ///< [m] see jaw_tool
   /// After a failed grip, objects whose grasp point lies within this of it are chosen only when no other
   /// is left, until a grip succeeds: the same fused depth gives the same wrong pose again [m].
   Scalar retry_distance = Scalar(0.01);
@@ -565,6 +577,8 @@ class PickingPipeline {
       in.camera = &sensor_->camera();
       in.up_camera = fused.T_base_target.linear().transpose() * Vec3::UnitZ();  // kinematics, not the scene
       if (s_.crop_to_bin) in.obstacles = uncropped_.view();
+      in.bin = bin_volume();
+      in.T_base_camera = fused.T_base_target;
       EstimationResult<Scalar> est = estimator_->estimate(in);
       out.estimation_s = seconds_since(t0);
       if (est.status == EstimationStatus::invalid_input) {
@@ -586,6 +600,16 @@ class PickingPipeline {
       out.error = std::string("processing: ") + e.what();
     }
     return out;
+  }
+
+  /// The bin as the settings give it.
+  BinVolume<Scalar> bin_volume() const {
+    BinVolume<Scalar> b;
+    b.floor_center = s_.bin_center;
+    b.length = s_.bin_length;
+    b.width = s_.bin_width;
+    b.height = s_.bin_height;
+    return b;
   }
 
   /// The region of interest (settings.crop_to_bin), counted in the fusion's time.
@@ -629,6 +653,8 @@ class PickingPipeline {
       if (T.translation().z() - s_.bin_center.z() < s_.min_grasp_height) continue;
       if (-T.linear().col(2).z() < std::cos(s_.max_approach_tilt)) continue;
       if (!est.objects[k].grasp_clear && !s_.grasp_blocked) continue;
+      const ToolBox<Scalar>& tool = est.objects[k].gripper == GripperKind::vacuum ? s_.cup_tool : s_.jaw_tool;
+      if (!tool_clear_of_bin(tool, T, bin_volume(), s_.tool_margin)) continue;
       const bool near_failed = std::any_of(failed_grasps_.begin(), failed_grasps_.end(), [&](const Vec3& f) {
         return (f - T.translation()).norm() < s_.retry_distance;
       });
@@ -974,6 +1000,9 @@ PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::PickingPipeline(Robot
   require(std::isfinite(s.lift_clearance) && s.lift_clearance >= 0, "lift_clearance", "must be finite and >= 0");
   require(std::isfinite(s.approach_distance) && s.approach_distance >= 0, "approach_distance", "must be finite and >= 0");
   require(std::isfinite(s.crop_floor) && s.crop_floor >= 0, "crop_floor", "must be finite and >= 0");
+  require(std::isfinite(s.tool_margin) && s.tool_margin >= 0, "tool_margin", "must be finite and >= 0");
+  require(s.jaw_tool.lo.allFinite() && s.jaw_tool.hi.allFinite(), "jaw_tool", "must be finite");
+  require(s.cup_tool.lo.allFinite() && s.cup_tool.hi.allFinite(), "cup_tool", "must be finite");
   require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");
   require(std::isfinite(s.retry_distance) && s.retry_distance >= 0, "retry_distance", "must be finite and >= 0");
   require(std::isfinite(s.confident_percent) && s.confident_percent >= 0 && s.confident_percent <= 100, "confident_percent",

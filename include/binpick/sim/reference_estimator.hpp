@@ -38,7 +38,8 @@
 ///     (detail::gripper_samples, opened to the larger of the grasp's opening and
 ///     gripper.approach_opening) stays in measured free space: fewer than min_colliding_samples of
 ///     its samples lie more than collision_margin behind measured points that are not the part's own
-///     surface (own_surface_margin; over a hole, the nearest surface within hole_reach); the one
+///     surface (own_surface_margin; over a hole, the nearest surface within hole_reach), and none
+///     stands in the bin's walls or floor when the input gives the bin (EstimatorInput::bin); the one
 ///     nearest to straight down (the input's up direction; the line of sight when unknown), else
 ///     (flagged unreachable, grasp_clear false) the best aligned one.
 
@@ -960,7 +961,8 @@ class ReferenceEstimator {
     T_camera_grasp = chosen->T_camera_grasp;
   }
 
-  /// Whether the gripper (its `samples`, grasp frame) at T_camera_grasp stands behind measured surfaces
+  /// Whether the gripper (its `samples`, grasp frame) at T_camera_grasp stands in the known bin
+  /// (input.bin, at any sample) or behind measured surfaces
   /// that are not the part's own (collision_margin, own_surface_margin) at min_colliding_samples or
   /// more of its samples. A sample over a hole is checked against the nearest surface within
   /// hole_reach of it.
@@ -974,6 +976,12 @@ class ReferenceEstimator {
       const auto g = cam.project(T_camera_grasp.translation());
       reach_px_at_1m = s_.hole_reach / pixel_width(cam, g ? g->x() : Scalar(cam.width()) / 2,
                                                    g ? g->y() : Scalar(cam.height()) / 2, Scalar(1));
+    }
+    // The known bin first: one sample in a wall or the floor is a collision (no measurement noise).
+    if (input.bin.known()) {
+      const Isometry3<Scalar> T_base_grasp = input.T_base_camera * T_camera_grasp;
+      for (const Vec3& q : samples)
+        if (input.bin.blocks(T_base_grasp * q)) return true;
     }
     int colliding = 0;
     for (const Vec3& q : samples) {
