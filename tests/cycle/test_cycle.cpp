@@ -678,6 +678,44 @@ TEST(Pipeline, AGraspWhoseToolStandsInAWallIsNotTried) {
   }
 }
 
+// A LAN connector lying flat against a long wall, end to end towards it: every grasp puts a finger in
+// the wall. Without the drag the cell never picks it; with it, a cycle drags it off the wall and a
+// later one picks it.
+TEST(Pipeline, DragsAPartOffAWallThenPicksIt) {
+  for (const bool drag : {true, false}) {
+    simcell::CellOptions o;
+    o.part = sim::PartType::lan_connector;
+    o.parts = 0;
+    o.seed = 23;
+    cycle::PipelineSettings<S> ps;
+    ps.seed = o.seed;
+    ps.fixed_compute_time = 0.040;
+    ps.drag_from_wall = drag;
+    simcell::Cell cell(o, ps);
+    const Eigen::Matrix3f R = Eigen::AngleAxisf(float(M_PI / 2), Eigen::Vector3f::UnitZ()).toRotationMatrix();
+    cell.scene.add_part(sim::PartType::lan_connector, R, Eigen::Vector2f(0.03f, 0.2f));  // clamped against the wall
+    const S y0 = cell.scene.parts()[0].T_base_part.translation().y();
+    ASSERT_GT(y0, ps.bin_width / 2 - S(0.012));  // its end within 1.5 mm of the wall
+    int dragged = 0, bin_hits = 0;
+    bool picked = false;
+    for (int k = 0; k < 6 && !picked; ++k) {
+      const auto r = cell.pipeline->run_cycle();
+      ASSERT_TRUE(r.error.empty()) << r.error;
+      dragged += r.dragged;
+      picked = r.status == cycle::CycleStatus::picked;
+      bin_hits += r.status == cycle::CycleStatus::grasp_failed && cell.gripper->last_status() == sim::PickStatus::bin_collision;
+      if (r.dragged) {
+        ASSERT_EQ(cell.scene.parts().size(), 1u);
+        EXPECT_LT(cell.scene.parts()[0].T_base_part.translation().y(), y0 - S(0.02)) << "the drag did not move it off the wall";
+      }
+    }
+    EXPECT_EQ(bin_hits, 0) << "drag " << drag;
+    EXPECT_EQ(picked, drag) << "drag " << drag;
+    EXPECT_EQ(dragged > 0, drag);
+    EXPECT_EQ(cell.gripper->dragged(), dragged);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------------
 // Determinism of the simulated picking test (with a fixed compute time on the simulated clock, the
 // cycles do not depend on how long the computer took), with driver faults injected on a seeded

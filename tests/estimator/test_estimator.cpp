@@ -486,6 +486,21 @@ TEST(ReferenceEstimator, AutomaticStrideFollowsTheSmallestPart) {
 
 // Grasp model: a true grasp of a lone part succeeds; moved off it, it matches nothing; the same grasp
 // against a wall or next to a neighbour collides.
+// What a drag moves: the part whose top the closed tool presses on, the upper of two stacked ones.
+TEST(GraspModel, PressedPartIsTheOneUnderTheTool) {
+  const PartType type = PartType::circle_nut;  // 20 mm across, 5 mm thick
+  Scene<float> scene;
+  const int low = scene.add_part(type, Eigen::Matrix3f::Identity(), Vector2<float>(0, 0));
+  const int far = scene.add_part(type, Eigen::Matrix3f::Identity(), Vector2<float>(0.1f, 0));
+  EXPECT_EQ(pressed_part(scene, Eigen::Vector3f(0, 0, 0.003f), 0.005f), low);   // 2 mm into its top
+  EXPECT_EQ(pressed_part(scene, Eigen::Vector3f(0.1f, 0, 0.003f), 0.005f), far);
+  EXPECT_EQ(pressed_part(scene, Eigen::Vector3f(0, 0, 0.02f), 0.005f), -1);     // above it
+  EXPECT_EQ(pressed_part(scene, Eigen::Vector3f(0.05f, 0, 0.003f), 0.005f), -1);  // between them
+  const int high = scene.add_part(type, Eigen::Matrix3f::Identity(), Vector2<float>(0, 0));  // on top of `low`
+  ASSERT_GT(scene.parts().back().T_base_part.translation().z(), 0.004f);
+  EXPECT_EQ(pressed_part(scene, Eigen::Vector3f(0, 0, 0.006f), 0.005f), high);
+}
+
 TEST(GraspModel, JudgesTolerancesAndCollisions) {
   const PartType type = PartType::pencil_coupler;
   Scene<float> scene;

@@ -349,8 +349,10 @@ TEST(Scene, APartLeftAloneRestsAsIfDroppedAlone) {
         SceneSettings<double> s;
         s.part_type = PartType(type);
         auto scene = Scene<double>::generate(s, seed);
-        for (int id = 0; id < s.num_parts; ++id)
-          if (id != keep) ASSERT_TRUE(scene.remove_part(id));
+        for (int id = 0; id < s.num_parts; ++id) {
+          if (id == keep) continue;
+          ASSERT_TRUE(scene.remove_part(id));
+        }
         ASSERT_EQ(scene.parts().size(), 1u);
         const auto& left = scene.parts()[0].T_base_part;
         SceneSettings<double> none = s;
@@ -362,4 +364,29 @@ TEST(Scene, APartLeftAloneRestsAsIfDroppedAlone) {
         ++checked;
       }
   EXPECT_EQ(checked, kNumPartTypes * 5 * 4);
+}
+
+// A drag moves a part over the floor: it keeps its id, lands where it was dragged (onto whatever lies
+// there), stays in the bin, and the pile stays free of interpenetration.
+TEST(Scene, MovingAPartKeepsItsIdAndThePileValid) {
+  SceneSettings<double> s;
+  s.part_type = PartType::lan_connector;
+  auto scene = Scene<double>::generate(s, 4);
+  const auto before = scene.parts();
+  const int id = before[0].id;  // the first placed: on the floor, parts may rest on it
+  const Vector3<double> p0 = before[0].T_base_part.translation();
+  const Vector2<double> delta(0.04, 0);
+  ASSERT_TRUE(scene.move_part(id, delta));
+  ASSERT_EQ(scene.parts().size(), before.size());
+  const auto& moved = scene.parts().back();
+  EXPECT_EQ(moved.id, id);
+  EXPECT_NEAR(moved.T_base_part.translation().x(), p0.x() + delta.x(), 0.01);  // settling may shift it a little
+  EXPECT_NEAR(moved.T_base_part.translation().y(), p0.y(), 0.01);
+  expect_valid_pile(scene, true);
+  // Dragged into a wall: clamped inside.
+  ASSERT_TRUE(scene.move_part(id, Vector2<double>(1.0, 0)));
+  EXPECT_LT(scene.parts().back().T_base_part.translation().x(), scene.bin().length / 2);
+  expect_valid_pile(scene, true);
+  EXPECT_FALSE(scene.move_part(12345, delta));
+  EXPECT_THROW(scene.move_part(id, Vector2<double>(std::nan(""), 0)), std::invalid_argument);
 }

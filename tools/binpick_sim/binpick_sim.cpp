@@ -69,7 +69,7 @@ struct Options {
 struct RunResult {
   cycle::Strategy strategy;
   sim::PartType type;
-  int run = 0, initial = 0, picked = 0, cycles = 0, searches = 0;
+  int run = 0, initial = 0, picked = 0, cycles = 0, searches = 0, drags = 0;
   std::vector<std::string> csv_rows;
   simcell::FaultLedger faults;
   int wrong_pose_cycles = 0;
@@ -210,6 +210,7 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
     rr.faults.record(arm, fired, r.status, wrong_pose);
     rr.wrong_pose_cycles += wrong_pose;
     if (r.search) ++rr.searches;
+    if (r.dragged) ++rr.drags;
     const bool picked = r.status == cycle::CycleStatus::picked;
     failures_in_row = picked ? 0 : failures_in_row + 1;
     if (picked) ++rr.picked;
@@ -239,6 +240,7 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
     // Why a cycle did not pick: the simulated world's judgement of a failed grip, else the status.
     const char* cause = r.status == cycle::CycleStatus::grasp_failed ? sim::to_string(cell.gripper->last_status())
                         : picked                                      ? "-"
+                        : r.dragged                                   ? "dragged"
                                                                       : cycle::to_string(r.status);
     // A failed grip's errors to the nearest true grasp (the judge's view; empty otherwise) and the
     // chosen grasp's approach tilt from straight down.
@@ -367,8 +369,9 @@ int main(int argc, char** argv) {
         results[j] = run_one(o, jb.s, jb.t, jb.run, params_of(jb.t), jb.pictures);
         const auto& r = results[j];
         std::lock_guard<std::mutex> lock(err_mutex);
-        std::fprintf(stderr, "[%d/%zu] %-4s %-15s run %2d: picked %2d/%2d in %2d cycles (%d searches)\n", ++done, jobs.size(),
-                     cycle::to_string(jb.s), sim::part_type_name(jb.t), jb.run, r.picked, r.initial, r.cycles, r.searches);
+        std::fprintf(stderr, "[%d/%zu] %-4s %-15s run %2d: picked %2d/%2d in %2d cycles (%d searches, %d drags)\n", ++done,
+                     jobs.size(), cycle::to_string(jb.s), sim::part_type_name(jb.t), jb.run, r.picked, r.initial, r.cycles, r.searches,
+                     r.drags);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(err_mutex);
         std::fprintf(stderr, "binpick_sim: job %zu failed: %s\n", j, e.what());
@@ -397,7 +400,7 @@ int main(int argc, char** argv) {
   bool first_s = true;
   for (auto s : o.strategies) {
     std::vector<double> takt, proc, fus, est, pla, phase, cyc;
-    int searches = 0, runs = 0, wrong_pose_cycles = 0;
+    int searches = 0, drags = 0, runs = 0, wrong_pose_cycles = 0;
     simcell::FaultLedger faults;
     if (!o.json) {
       std::printf("\nStrategy %s\n", strategy_label(s));
@@ -427,6 +430,7 @@ int main(int argc, char** argv) {
         phase.insert(phase.end(), r.phase_ms.begin(), r.phase_ms.end());
         cyc.insert(cyc.end(), r.cycle_s.begin(), r.cycle_s.end());
         searches += r.searches;
+        drags += r.drags;
         faults.merge(r.faults);
         wrong_pose_cycles += r.wrong_pose_cycles;
         grips.merge(r.grips);
@@ -483,8 +487,8 @@ int main(int argc, char** argv) {
       });
       line("Cycles recognizing nothing", [](const Row& r) { return std::to_string(r.grips.nothing_recognized); });
       std::printf("Sensing in takt: %.3f s mean over %zu placing cycles (paper: 0.635 s ours, ~6 s Robot Fusion); "
-                  "searches: %.2f per run\n",
-                  mean(takt), takt.size(), runs ? double(searches) / runs : 0.0);
+                  "searches: %.2f per run; drags from a wall: %.2f per run\n",
+                  mean(takt), takt.size(), runs ? double(searches) / runs : 0.0, runs ? double(drags) / runs : 0.0);
       std::printf("Processing per cycle: fusion+ICP %.1f ms + planning %.2f ms = %.1f ms (measured); estimation %.0f ms; "
                   "whole processing phase with Table I hardware time %.0f ms; mean cycle %.2f s\n",
                   mean(fus), mean(pla), mean(proc), mean(est), mean(phase), mean(cyc));
@@ -518,7 +522,8 @@ int main(int argc, char** argv) {
     }
     js << "}, \"sensing_in_takt_s\": " << json_number(mean(takt)) << ", \"processing_ms\": " << json_number(mean(proc))
        << ", \"estimation_ms\": " << json_number(mean(est)) << ", \"processing_phase_ms\": " << json_number(mean(phase))
-       << ", \"searches_per_run\": " << json_number(runs ? double(searches) / runs : 0.0) << ", \"mean_cycle_s\": "
+       << ", \"searches_per_run\": " << json_number(runs ? double(searches) / runs : 0.0)
+       << ", \"drags_per_run\": " << json_number(runs ? double(drags) / runs : 0.0) << ", \"mean_cycle_s\": "
        << json_number(mean(cyc));
     if (o.fault_rate > 0) js << ", \"faults\": " << faults.json() << ", \"cycles_fusing_a_wrong_pose\": " << wrong_pose_cycles;
     js << "}";

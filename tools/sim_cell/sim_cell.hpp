@@ -109,6 +109,22 @@ class SimGripper {
     return true;
   }
   void release() {}
+  /// A drag (gripper.hpp): the closed tool pressed at T_base_from and moved to T_base_to drags the
+  /// part it presses on (sim::pressed_part; the tool's footprint is the closed jaws' or the cup's) over
+  /// the floor by the move's horizontal part (Scene::move_part). Friction is not modelled: the part
+  /// follows the tool. Counts the parts moved.
+  bool prepare_drag(const Isometry3<Scalar>& T_base_from, const Isometry3<Scalar>& T_base_to) {
+    const auto& g = s_.gripper;
+    const Scalar radius = std::max({g.finger_clearance + g.finger_thickness, g.finger_width / 2, g.cup_radius});
+    const int id = sim::pressed_part(*scene_, Vector3<Scalar>(T_base_from.translation()), radius);
+    if (id >= 0) {
+      scene_->move_part(id, (T_base_to.translation() - T_base_from.translation()).template head<2>());
+      ++dragged_;
+    }
+    return true;
+  }
+  /// Parts moved by drags so far.
+  int dragged() const { return dragged_; }
   /// The judgement of the last grip (the cause column of a failed grasp).
   sim::PickStatus last_status() const { return last_; }
   /// The judge's tolerances.
@@ -123,6 +139,7 @@ class SimGripper {
   Scalar opening_ = 0;
   sim::PickStatus last_ = sim::PickStatus::success;
   sim::PickOutcome<Scalar> last_outcome_;
+  int dragged_ = 0;
 };
 
 static_assert(cycle::is_gripper<SimGripper<float>>::value, "SimGripper models Gripper");

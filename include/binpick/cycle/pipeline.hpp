@@ -19,11 +19,12 @@
 ///  3. grasp: C → above the grasp pose → grasp (A) → lift to the next pull-up point B.
 /// The object to grasp: the most confident one whose grasp the estimator found clear, whose tool keeps
 /// clear of the known bin (`jaw_tool`, bin_volume.hpp) and that lies away from the grips that failed
-/// since the last success; objects below `confident_percent` only when no
-/// other offers a grasp at all; an object whose grasp the estimator found blocked never, unless
-/// `grasp_blocked`. The first cycle uses a predefined path (Alg. 2 aimed at the bin centre
-/// from a home point above it). When nothing is recognized (or no grasp is reachable) the next cycle
-/// runs the *search move*:
+/// since the last success; objects below `confident_percent` only when no other offers a grasp at
+/// all; an object whose grasp the estimator found blocked never, unless `grasp_blocked`. When none
+/// offers a grasp and a blocked one lies against a wall, the cycle drags it off the wall instead
+/// (`drag_from_wall`, CycleResult::dragged). The first cycle uses a predefined path (Alg. 2 aimed at
+/// the bin centre from a home point above it). When nothing is recognized (or no grasp is reachable)
+/// the next cycle runs the *search move*:
 /// from the home point, an arc over the bin centre with `search_beta_factor` × β coverage — a wider
 /// look — counted in CycleResult::search. Searches in a row (no grasp between them) aim in turn at the
 /// bin centre and at the centres of its four quarters, each from above it looking outward
@@ -181,6 +182,21 @@ struct PipelineSettings {
   /// 0 of the 12 blocked grips tried at 640 × 512 held (7 hit a neighbouring part), and 0 of 5 at
   /// 1280 × 1024. In a real cell such a grip risks the gripper as well.
   bool grasp_blocked = false;
+  /// Drag recovery. A part against a wall often offers no grasp at all: every way of closing the jaws
+  /// on it puts a finger in the wall, and looking again does not change that (the paper's failed picks,
+  /// §IV.D). When no object offers a grasp and one that was skipped as blocked (by the estimator or by
+  /// the bin check, jaw_tool) has its centre within `drag_wall_distance` of a wall's inner face, the
+  /// cycle drags it instead of searching: the closed tool presses `drag_press` into its top (the
+  /// highest fused depth within `drag_radius` of its centre) and moves `drag_distance` straight away
+  /// from the wall (from both at a corner); the next cycle looks where it went. At most
+  /// `max_drags_in_row` drags between two grips, then searches. Needs a gripper with prepare_drag
+  /// (gripper.hpp); CycleResult::dragged counts them.
+  bool drag_from_wall = true;
+  Scalar drag_wall_distance = Scalar(0.03);  ///< [m] see drag_from_wall
+  Scalar drag_distance = Scalar(0.04);       ///< [m]
+  Scalar drag_press = Scalar(0.002);         ///< [m]
+  Scalar drag_radius = Scalar(0.005);        ///< [m] the closed tool's footprint
+  int max_drags_in_row = 2;
   std::uint64_t seed = 1;                  ///< random target points of random_path
   bool keep_images = false;                ///< keep the fused depth and votes in the CycleResult
   /// A pose read or a frame stamped further than this from its view's trigger is not matched to the
@@ -271,6 +287,7 @@ struct CycleResult {
   int index = 0;                 ///< cycle number of this pipeline, from 0
   bool placed = false;           ///< a part was released at C in this cycle
   bool search = false;           ///< this cycle ran the search move
+  bool dragged = false;          ///< instead of a grasp, this cycle dragged a part away from a wall (drag_from_wall)
   int views = 0;                 ///< views fused
   int recognized = 0;            ///< objects the estimator returned
   PathSource path_source = PathSource::predefined;  ///< this cycle's sensing path
@@ -393,6 +410,8 @@ class PickingPipeline {
     Pose T_base_grasp = Pose::Identity();
     GripperKind gripper = GripperKind::two_finger;
     bool grasp_clear = false;
+    bool has_drag = false;  // no grasp; drag from T_base_drag_from to T_base_drag_to (drag_from_wall)
+    Pose T_base_drag_from = Pose::Identity(), T_base_drag_to = Pose::Identity();
     Plan next;
     active_vision::SensingPathStatus plan_status = active_vision::SensingPathStatus::ok;
     std::vector<Vec3> objects_base;
@@ -588,7 +607,7 @@ class PickingPipeline {
       }
 
       t0 = clk::now();
-      plan(fused.T_base_target, est, out);
+      plan(fused.T_base_target, fused.depth.view(), est, out);
       out.planning_s = seconds_since(t0);
       if (s_.keep_images) {
         out.fused = std::move(fused.depth);
@@ -632,7 +651,7 @@ class PickingPipeline {
   }
 
   /// Choose the object to grasp, and plan the grasp and the next sensing path (Eq. 1, Alg. 2).
-  void plan(const Pose& T_base_ref, const EstimationResult<Scalar>& est, Processed& out) {
+  void plan(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const EstimationResult<Scalar>& est, Processed& out) {
     out.recognized = int(est.objects.size());
     std::vector<Vec3> positions;
     std::vector<Scalar> confidences;
@@ -647,14 +666,17 @@ class PickingPipeline {
     // success, 1: clear, 2: blocked; the same three again (3-5) for objects below confident_percent.
     std::size_t chosen = active_vision::no_grasped_object;
     int best_tier = 6;
+    std::vector<std::size_t> blocked;  // skipped for a blocked grasp: what a drag may free
     for (std::size_t k = 0; k < est.objects.size() && best_tier > 0; ++k) {
       const Pose T = T_base_ref * est.objects[k].T_camera_grasp;
       if (!detail::is_rigid_finite(T)) continue;
       if (T.translation().z() - s_.bin_center.z() < s_.min_grasp_height) continue;
       if (-T.linear().col(2).z() < std::cos(s_.max_approach_tilt)) continue;
-      if (!est.objects[k].grasp_clear && !s_.grasp_blocked) continue;
       const ToolBox<Scalar>& tool = est.objects[k].gripper == GripperKind::vacuum ? s_.cup_tool : s_.jaw_tool;
-      if (!tool_clear_of_bin(tool, T, bin_volume(), s_.tool_margin)) continue;
+      if ((!est.objects[k].grasp_clear && !s_.grasp_blocked) || !tool_clear_of_bin(tool, T, bin_volume(), s_.tool_margin)) {
+        blocked.push_back(k);
+        continue;
+      }
       const bool near_failed = std::any_of(failed_grasps_.begin(), failed_grasps_.end(), [&](const Vec3& f) {
         return (f - T.translation()).norm() < s_.retry_distance;
       });
@@ -673,6 +695,7 @@ class PickingPipeline {
     if (chosen == active_vision::no_grasped_object) {
       out.has_grasp = false;
       out.status = CycleStatus::nothing_recognized;
+      plan_drag(T_base_ref, depth, blocked, positions, out);
       return;
     }
     out.has_grasp = true;
@@ -692,6 +715,61 @@ class PickingPipeline {
     out.next = plan_with_fallbacks(target, A, T_B);
     out.plan_status = out.next.status;
     next_B_ = T_B;
+  }
+
+  /// A drag of the first of the `blocked` objects whose centre lies near a wall (drag_from_wall), and
+  /// the next sensing path, aimed at where the drag ends. Leaves `out` without a drag when none applies.
+  void plan_drag(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const std::vector<std::size_t>& blocked,
+                 const std::vector<Vec3>& positions, Processed& out) {
+    if (!s_.drag_from_wall || !can_drag<Gripper>::value || drags_in_row_ >= s_.max_drags_in_row) return;
+    for (const std::size_t k : blocked) {
+      const Vec3 d = positions[k] - s_.bin_center;
+      if (!d.allFinite()) continue;
+      Vec3 away = Vec3::Zero();  // from the near walls into the bin
+      if (s_.bin_length / 2 - std::abs(d.x()) < s_.drag_wall_distance) away.x() = d.x() > 0 ? Scalar(-1) : Scalar(1);
+      if (s_.bin_width / 2 - std::abs(d.y()) < s_.drag_wall_distance) away.y() = d.y() > 0 ? Scalar(-1) : Scalar(1);
+      if (away.isZero()) continue;
+      Pose T_from = Pose::Identity();
+      T_from.linear() = Vec3(1, -1, -1).asDiagonal();  // the tool straight down
+      T_from.translation() = positions[k];
+      T_from.translation().z() = std::max(surface_top(T_base_ref, depth, positions[k]) - s_.drag_press,
+                                          s_.bin_center.z() + s_.min_grasp_height);
+      Pose T_to = T_from;
+      T_to.translation() += s_.drag_distance * away.normalized();
+      out.has_drag = true;
+      out.T_base_drag_from = T_from;
+      out.T_base_drag_to = T_to;
+      Pose T_B = T_to;
+      T_B.translation().z() = s_.bin_center.z() + s_.bin_height + s_.lift_clearance;
+      out.next = plan_with_fallbacks(T_to.translation(), T_to.translation(), T_B);
+      out.plan_status = out.next.status;
+      next_B_ = T_B;
+      return;
+    }
+  }
+
+  /// The highest point of `depth` (view at T_base_ref) within drag_radius of p horizontally, base z;
+  /// p's own z when the depth shows nothing there.
+  Scalar surface_top(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const Vec3& p) const {
+    const Camera& cam = sensor_->camera();
+    const Pose T_ref_base = T_base_ref.inverse(Eigen::Isometry);
+    const Vec3 q = T_ref_base * p;
+    const auto c = cam.project(q), e = cam.project(Vec3(q + Vec3(s_.drag_radius, 0, 0)));
+    Scalar top = p.z();
+    if (!c || !e || depth.empty()) return top;
+    const int r = int(std::ceil(std::min((*e - *c).norm(), Scalar(64)))) + 1;
+    const int u0 = int(std::lround(c->x())), v0 = int(std::lround(c->y()));
+    bool found = false;
+    for (int v = std::max(0, v0 - r); v <= std::min(depth.height() - 1, v0 + r); ++v)
+      for (int u = std::max(0, u0 - r); u <= std::min(depth.width() - 1, u0 + r); ++u) {
+        const Scalar z = depth.depth(u, v);
+        if (!(z > Scalar(0)) || !std::isfinite(z)) continue;
+        const Vec3 b = T_base_ref * Vec3(cam.backproject(Scalar(u), Scalar(v), z));
+        if ((b - p).template head<2>().norm() > s_.drag_radius) continue;
+        top = found ? std::max(top, b.z()) : b.z();
+        found = true;
+      }
+    return top;
   }
 
   /// The next sensing path after the `failures`-th failed grip in a row: the planned one (same target,
@@ -760,6 +838,7 @@ class PickingPipeline {
   void finish(Processed& p, CycleResult<Scalar>& r, Timeline& tl) {
     if (!p.ok) throw CycleFailure(p.status, p.error);
     if (!p.has_grasp) {
+      if (p.has_drag && drag(p, r, tl)) return;
       ++searches_;
       next_ = searches_in_turn_[std::size_t(searches_in_row_++) % searches_in_turn_.size()];
       move({T_home_}, s_.motion_speed_percent, "to home (search)", tl);
@@ -781,6 +860,7 @@ class PickingPipeline {
     }
     move({pre, next_B_}, s_.motion_speed_percent, "lift A->B", tl);
     searches_in_row_ = 0;
+    drags_in_row_ = 0;
     holding_ = held;
     if (held)
       failed_grasps_.clear();
@@ -790,6 +870,31 @@ class PickingPipeline {
                 ? p.next
                 : relook(p.next, p.T_base_grasp.translation(), failed_grasps_.size());
     r.status = held ? CycleStatus::picked : CycleStatus::grasp_failed;
+  }
+
+  /// The drag planned by plan_drag: above its start at the pull-up height, the tool closed, pressed,
+  /// dragged, lifted to the next pull-up point. False when the gripper declines (then the caller searches).
+  bool drag(const Processed& p, CycleResult<Scalar>& r, Timeline& tl) {
+    bool ready = false;
+    if constexpr (can_drag<Gripper>::value) {
+      try {
+        ready = gripper_->prepare_drag(cast_robot(p.T_base_drag_from), cast_robot(p.T_base_drag_to));
+      } catch (const std::exception& e) {
+        throw CycleFailure(CycleStatus::robot_failure, std::string("gripper: ") + e.what());
+      }
+    }
+    if (!ready) return false;
+    Pose above = p.T_base_drag_from;
+    above.translation().z() = next_B_.translation().z();
+    move({above}, s_.motion_speed_percent, "to drag", tl);
+    move({p.T_base_drag_from}, s_.grasp_speed_percent, "press", tl);
+    move({p.T_base_drag_to}, s_.grasp_speed_percent, "drag", tl);
+    move({next_B_}, s_.motion_speed_percent, "lift after drag", tl);
+    ++drags_in_row_;
+    next_ = p.next;
+    r.dragged = true;
+    r.status = CycleStatus::nothing_recognized;
+    return true;
   }
 
   void run_nonstop(CycleResult<Scalar>& r) {
@@ -973,6 +1078,7 @@ class PickingPipeline {
   int cycles_ = 0;
   int searches_ = 0;
   int searches_in_row_ = 0;  ///< searches since the last grasp
+  int drags_in_row_ = 0;     ///< drags since the last grasp
   std::vector<Plan> searches_in_turn_;  ///< search_plans()
 };
 
@@ -1001,6 +1107,9 @@ PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::PickingPipeline(Robot
   require(std::isfinite(s.approach_distance) && s.approach_distance >= 0, "approach_distance", "must be finite and >= 0");
   require(std::isfinite(s.crop_floor) && s.crop_floor >= 0, "crop_floor", "must be finite and >= 0");
   require(std::isfinite(s.tool_margin) && s.tool_margin >= 0, "tool_margin", "must be finite and >= 0");
+  for (Scalar d : {s.drag_wall_distance, s.drag_distance, s.drag_press, s.drag_radius})
+    require(std::isfinite(d) && d >= 0, "drag_distance", "drag_wall_distance, drag_distance, drag_press and drag_radius must be finite and >= 0");
+  require(s.max_drags_in_row >= 0, "max_drags_in_row", "must be >= 0");
   require(s.jaw_tool.lo.allFinite() && s.jaw_tool.hi.allFinite(), "jaw_tool", "must be finite");
   require(s.cup_tool.lo.allFinite() && s.cup_tool.hi.allFinite(), "cup_tool", "must be finite");
   require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");

@@ -176,4 +176,22 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
   return out;
 }
 
+/// The part a closed tool pressing down at `tip` (base frame; a vertical cylinder of `radius` [m] above
+/// the tip) rests on: of the parts with a collision sphere within the cylinder's reach and reaching
+/// above the tip, the one reaching highest (the tool presses on its top). Its id, or -1 when the tool
+/// presses on none. What a drag moves (SimGripper::prepare_drag).
+template <typename Scalar>
+int pressed_part(const Scene<Scalar>& scene, const Vector3<Scalar>& tip, Scalar radius) {
+  int id = -1;
+  Scalar highest = tip.z();
+  for (std::size_t i = 0; i < scene.parts().size(); ++i)
+    for (const auto& s : scene.world_spheres(scene.parts()[i])) {
+      const Scalar reach = s.radius + radius, top = s.centre.z() + s.radius;
+      if ((s.centre - tip).template head<2>().squaredNorm() >= reach * reach || !(top > highest)) continue;
+      highest = top;
+      id = scene.parts()[i].id;
+    }
+  return id;
+}
+
 }  // namespace binpick::sim

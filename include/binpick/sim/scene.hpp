@@ -140,6 +140,25 @@ class Scene {
     return true;
   }
 
+  /// Moves the part with `id` by `delta` (x, y) [m] at its orientation, as a drag over the floor
+  /// would: it is taken out (the parts on it settle), then dropped again at the new place (clamped
+  /// into the bin) onto whatever lies there and settles. It keeps its id. Returns false when no part
+  /// has that id. Throws std::invalid_argument naming `delta` when it is not finite.
+  bool move_part(int id, const Vector2<Scalar>& delta) {
+    require_all_finite(delta, "delta");
+    std::size_t k = 0;
+    while (k < parts_.size() && parts_[k].id != id) ++k;
+    if (k == parts_.size()) return false;
+    PlacedPart<Scalar> p = parts_[k];
+    remove_part(id);
+    p.T_base_part.translation().template head<2>() += delta;
+    place(p, parts_.size());
+    parts_.push_back(p);
+    world_.push_back(world_spheres(parts_.back()));
+    ++revision_;
+    return true;
+  }
+
   const std::vector<PlacedPart<Scalar>>& parts() const { return parts_; }
   const BinGeometry<Scalar>& bin() const { return bin_; }
   /// Increments on every change (renderers rebuild their acceleration structure on a new revision).
