@@ -716,6 +716,34 @@ TEST(Pipeline, DragsAPartOffAWallThenPicksIt) {
   }
 }
 
+// Two parts side by side in the middle of the bin, both reported blocked: the cycle drags one straight
+// away from the other (drag_apart) instead of searching; without drag_apart it searches.
+TEST(Pipeline, DragsBlockedNeighboursApart) {
+  for (const bool apart : {true, false}) {
+    TestCell cell(0, cycle::Strategy::ours);
+    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.0f, 0.0f));
+    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.022f, 0.0f));
+    cell.estimator.all_blocked = true;
+    auto ps = cell.pipeline->settings();
+    ps.drag_apart = apart;
+    cell.pipeline = std::make_unique<TestCell::Pipeline>(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps);
+    const auto r = cell.pipeline->run_cycle();
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_EQ(r.recognized, 2);
+    EXPECT_EQ(r.status, cycle::CycleStatus::nothing_recognized);
+    EXPECT_EQ(r.dragged, apart);
+    ASSERT_EQ(cell.scene.parts().size(), 2u);
+    const auto& p = cell.scene.parts();
+    const float gap = (p[0].T_base_part.translation() - p[1].T_base_part.translation()).head<2>().norm();
+    if (apart)
+      EXPECT_GT(gap, 0.05f) << "not dragged apart";
+    else
+      EXPECT_NEAR(gap, 0.022f, 1e-4f);
+    const auto r2 = cell.pipeline->run_cycle();
+    EXPECT_EQ(r2.search, !apart);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------------
 // Determinism of the simulated picking test (with a fixed compute time on the simulated clock, the
 // cycles do not depend on how long the computer took), with driver faults injected on a seeded

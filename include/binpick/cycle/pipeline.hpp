@@ -193,6 +193,10 @@ struct PipelineSettings {
   /// (gripper.hpp); CycleResult::dragged counts them.
   bool drag_from_wall = true;
   Scalar drag_wall_distance = Scalar(0.03);  ///< [m] see drag_from_wall
+  /// The same drag for a blocked object away from a wall but within `drag_wall_distance` of another
+  /// recognized object: it is dragged straight away from that one (singulation). Parts left in a
+  /// tangle at the end of a run block each other's grasps from every side.
+  bool drag_apart = true;
   Scalar drag_distance = Scalar(0.04);       ///< [m]
   Scalar drag_press = Scalar(0.002);         ///< [m]
   Scalar drag_radius = Scalar(0.005);        ///< [m] the closed tool's footprint
@@ -717,7 +721,8 @@ class PickingPipeline {
     next_B_ = T_B;
   }
 
-  /// A drag of the first of the `blocked` objects whose centre lies near a wall (drag_from_wall), and
+  /// A drag of the first of the `blocked` objects whose centre lies near a wall (drag_from_wall) or
+  /// near another object (drag_apart), and
   /// the next sensing path, aimed at where the drag ends. Leaves `out` without a drag when none applies.
   void plan_drag(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const std::vector<std::size_t>& blocked,
                  const std::vector<Vec3>& positions, Processed& out) {
@@ -728,6 +733,16 @@ class PickingPipeline {
       Vec3 away = Vec3::Zero();  // from the near walls into the bin
       if (s_.bin_length / 2 - std::abs(d.x()) < s_.drag_wall_distance) away.x() = d.x() > 0 ? Scalar(-1) : Scalar(1);
       if (s_.bin_width / 2 - std::abs(d.y()) < s_.drag_wall_distance) away.y() = d.y() > 0 ? Scalar(-1) : Scalar(1);
+      if (away.isZero() && s_.drag_apart) {  // away from the nearest other object, when near one
+        Scalar nearest = s_.drag_wall_distance;
+        for (std::size_t j = 0; j < positions.size(); ++j) {
+          const Vec3 e = positions[k] - positions[j];
+          const Scalar dist = e.template head<2>().norm();
+          if (j == k || !(dist < nearest) || !(dist > Scalar(1e-3))) continue;
+          nearest = dist;
+          away = Vec3(e.x(), e.y(), 0);
+        }
+      }
       if (away.isZero()) continue;
       Pose T_from = Pose::Identity();
       T_from.linear() = Vec3(1, -1, -1).asDiagonal();  // the tool straight down
@@ -736,6 +751,11 @@ class PickingPipeline {
                                           s_.bin_center.z() + s_.min_grasp_height);
       Pose T_to = T_from;
       T_to.translation() += s_.drag_distance * away.normalized();
+      // The tool stays off the walls.
+      const Scalar hx = s_.bin_length / 2 - s_.drag_radius - s_.drag_wall_distance / 2;
+      const Scalar hy = s_.bin_width / 2 - s_.drag_radius - s_.drag_wall_distance / 2;
+      T_to.translation().x() = std::clamp(T_to.translation().x(), s_.bin_center.x() - hx, s_.bin_center.x() + hx);
+      T_to.translation().y() = std::clamp(T_to.translation().y(), s_.bin_center.y() - hy, s_.bin_center.y() + hy);
       out.has_drag = true;
       out.T_base_drag_from = T_from;
       out.T_base_drag_to = T_to;
