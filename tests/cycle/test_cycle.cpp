@@ -237,6 +237,13 @@ struct TestCell {
     gripper = std::make_unique<simcell::SimGripper<S>>(scene, sim::PartType::circle_nut);
     pipeline = std::make_unique<Pipeline>(robot, sensor, estimator, clock, *gripper, ps);
   }
+  /// A new pipeline over the same drivers with the settings `change` makes to the current ones.
+  template <typename Change>
+  void reconfigure(Change&& change) {
+    auto ps = pipeline->settings();
+    change(ps);
+    pipeline = std::make_unique<Pipeline>(robot, sensor, estimator, clock, *gripper, ps);
+  }
 };
 
 }  // namespace
@@ -662,9 +669,7 @@ TEST(Pipeline, AGraspWhoseToolStandsInAWallIsNotTried) {
     // puts the 5 mm cup 1 mm into the wall.
     const S hx = S(0.25) - S(0.010) - S(0.001);
     cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(hx, 0.02f));
-    auto ps = cell.pipeline->settings();
-    if (!check) ps.cup_tool = ps.jaw_tool = {};
-    cell.pipeline = std::make_unique<TestCell::Pipeline>(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps);
+    if (!check) cell.reconfigure([](cycle::PipelineSettings<S>& ps) { ps.cup_tool = ps.jaw_tool = {}; });
     const auto r = cell.pipeline->run_cycle();
     ASSERT_TRUE(r.error.empty()) << r.error;
     EXPECT_EQ(r.recognized, 1);
@@ -724,9 +729,7 @@ TEST(Pipeline, DragsBlockedNeighboursApart) {
     cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.0f, 0.0f));
     cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.022f, 0.0f));
     cell.estimator.all_blocked = true;
-    auto ps = cell.pipeline->settings();
-    ps.drag_apart = apart;
-    cell.pipeline = std::make_unique<TestCell::Pipeline>(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps);
+    cell.reconfigure([&](cycle::PipelineSettings<S>& ps) { ps.drag_apart = apart; });
     const auto r = cell.pipeline->run_cycle();
     ASSERT_TRUE(r.error.empty()) << r.error;
     EXPECT_EQ(r.recognized, 2);

@@ -121,8 +121,7 @@ class Scene {
   /// a part leaning on a neighbour with one end on the floor keeps its height when the neighbour goes
   /// (the floor contact sets it), and without a new settle it would stand leaning on nothing.
   bool remove_part(int id) {
-    std::size_t k = 0;
-    while (k < parts_.size() && parts_[k].id != id) ++k;
+    const std::size_t k = index_of(id);
     if (k == parts_.size()) return false;
     std::vector<CollisionSphere<Scalar>> gone = world_[k];  // where support may have been lost
     parts_.erase(parts_.begin() + std::ptrdiff_t(k));
@@ -146,8 +145,7 @@ class Scene {
   /// has that id. Throws std::invalid_argument naming `delta` when it is not finite.
   bool move_part(int id, const Vector2<Scalar>& delta) {
     require_all_finite(delta, "delta");
-    std::size_t k = 0;
-    while (k < parts_.size() && parts_[k].id != id) ++k;
+    const std::size_t k = index_of(id);
     if (k == parts_.size()) return false;
     PlacedPart<Scalar> p = parts_[k];
     remove_part(id);
@@ -262,6 +260,13 @@ class Scene {
       }
     }
     return z;
+  }
+
+  /// The index of the part with `id`, parts_.size() when there is none.
+  std::size_t index_of(int id) const {
+    std::size_t k = 0;
+    while (k < parts_.size() && parts_[k].id != id) ++k;
+    return k;
   }
 
   /// Whether two sets of spheres touch (within 0.1 mm: resting contact is exact up to rounding).
