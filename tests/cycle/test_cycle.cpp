@@ -129,6 +129,7 @@ struct OracleEstimator {
   S grasp_shift = 0;                       // every grasp moved this far along base x [m]: grips fail
   bool weak_clear_top = false;  // the top part: 20 % and a clear grasp; the others: confident, not clear
   bool all_blocked = false;     // every grasp reported blocked (grasp_clear false)
+  std::vector<int> only_ids;    // when not empty: the parts with these ids only (the others unrecognized)
   long with_obstacles = 0, only_in_obstacles = 0;  // calls given obstacles; pixels measured only there
   cycle::EstimationResult<S> estimate(const cycle::EstimatorInput<S, Camera>& in) {
     threads.push_back(std::this_thread::get_id());
@@ -158,6 +159,7 @@ struct OracleEstimator {
     }
     const Isometry3<S> T_cam_base = sensor->T_base_view1.inverse(Eigen::Isometry);
     for (const auto& p : scene->parts()) {
+      if (!only_ids.empty() && std::find(only_ids.begin(), only_ids.end(), p.id) == only_ids.end()) continue;
       const auto& m = scene->model(p.type);
       for (const auto& g : m.grasps) {
         Isometry3<S> G = p.T_base_part * g.T_part_grasp;
@@ -744,6 +746,70 @@ TEST(Pipeline, DragsBlockedNeighboursApart) {
       EXPECT_NEAR(gap, 0.022f, 1e-4f);
     const auto r2 = cell.pipeline->run_cycle();
     EXPECT_EQ(r2.search, !apart);
+  }
+}
+
+// A blocked part beside a pile the estimator does not recognize (two nuts stacked 25 mm away): the cycle
+// drags it away from the pile, read from the fused depth. The same part lying alone balances its own
+// surface: nothing to drag it from, the cycle searches. Without drag_apart it searches either way.
+TEST(Pipeline, DragsABlockedPartAwayFromAnUnrecognizedPile) {
+  for (const bool pile : {true, false})
+    for (const bool apart : {true, false}) {
+      TestCell cell(0, cycle::Strategy::ours);
+      cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.0f, 0.01f));
+      if (pile)
+        for (int k = 0; k < 2; ++k)
+          cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.025f, 0.01f));
+      cell.estimator.all_blocked = true;
+      cell.estimator.only_ids = {cell.scene.parts()[0].id};
+      cell.reconfigure([&](cycle::PipelineSettings<S>& ps) { ps.drag_apart = apart; });
+      const Eigen::Vector3f before = cell.scene.parts()[0].T_base_part.translation();
+      const auto r = cell.pipeline->run_cycle();
+      ASSERT_TRUE(r.error.empty()) << r.error;
+      ASSERT_EQ(r.recognized, 1);
+      EXPECT_EQ(r.status, cycle::CycleStatus::nothing_recognized);
+      EXPECT_EQ(r.dragged, pile && apart) << "pile " << pile << " apart " << apart;
+      ASSERT_EQ(cell.scene.parts().size(), pile ? 3u : 1u);
+      const auto& parts = cell.scene.parts();
+      const auto it = std::find_if(parts.begin(), parts.end(), [&](const auto& p) { return p.id == cell.estimator.only_ids[0]; });
+      ASSERT_NE(it, parts.end());
+      const Eigen::Vector3f moved = it->T_base_part.translation() - before;
+      if (pile && apart) {
+        EXPECT_LT(moved.x(), -0.035f) << "not dragged away from the pile";
+        EXPECT_LT(std::abs(moved.y()), 0.01f);
+      } else {
+        EXPECT_LT(moved.head<2>().norm(), 1e-4f);
+      }
+      EXPECT_EQ(cell.pipeline->run_cycle().search, !(pile && apart));
+    }
+}
+
+// Grips that keep failing at one part (every grasp estimated 5 mm off): after drag_after_failures of
+// them the cycle drags the part instead of gripping it a third time, here off the near wall; with the
+// setting 0 it grips again.
+TEST(Pipeline, DragsAPartAtWhichGripsKeepFailing) {
+  for (const int after : {2, 0}) {
+    TestCell cell(0, cycle::Strategy::ours);
+    const S y = S(0.125) - S(0.02);  // 20 mm from the long wall's inner face; grasps clear of it
+    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.05f, y));
+    cell.estimator.grasp_shift = S(0.005);
+    cell.reconfigure([&](cycle::PipelineSettings<S>& ps) { ps.drag_after_failures = after; });
+    for (int k = 0; k < 2; ++k) {
+      const auto r = cell.pipeline->run_cycle();
+      ASSERT_TRUE(r.error.empty()) << r.error;
+      ASSERT_EQ(r.status, cycle::CycleStatus::grasp_failed);
+      EXPECT_FALSE(r.dragged);
+    }
+    const S y0 = cell.scene.parts()[0].T_base_part.translation().y();
+    const auto r = cell.pipeline->run_cycle();
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_EQ(r.dragged, after > 0);
+    EXPECT_EQ(r.status, after > 0 ? cycle::CycleStatus::nothing_recognized : cycle::CycleStatus::grasp_failed);
+    const S dy = cell.scene.parts()[0].T_base_part.translation().y() - y0;
+    if (after > 0)
+      EXPECT_LT(dy, S(-0.03)) << "not dragged off the wall";
+    else
+      EXPECT_NEAR(dy, S(0), S(1e-4));
   }
 }
 
