@@ -287,11 +287,13 @@ TEST(Pipeline, EmptiesASmallPileWithProcessingDuringTheDrop) {
 }
 
 // Searches in a row aim at the bin centre, then at each of its quarters, then around again
-// (vary_search); without it every search aims at the same spot.
+// (vary_search); without it every search aims at the same spot. (No drags here: drag_unrecognized_after
+// would drag the pile the blind estimator does not see instead of searching again.)
 TEST(Pipeline, SearchesInARowAimAtDifferentPartsOfTheBin) {
   for (const bool vary : {true, false}) {
     TestCell cell(3, cycle::Strategy::ours, 5, vary);
     cell.estimator.blind = true;
+    cell.reconfigure([](cycle::PipelineSettings<S>& ps) { ps.drag_unrecognized_after = 0; });
     const cycle::PipelineSettings<S>& ps = cell.pipeline->settings();
     std::vector<Eigen::Vector3f> targets;
     for (int c = 0; c < 7; ++c) {
@@ -811,6 +813,41 @@ TEST(Pipeline, DragsAPartAtWhichGripsKeepFailing) {
     else
       EXPECT_NEAR(dy, S(0), S(1e-4));
   }
+}
+
+// The estimator recognizes nothing: the first cycle searches; the second drags the highest surface in
+// the bin (a nut lying on another) instead of searching again. An empty bin shows no surface to drag,
+// and with the setting 0 the cell keeps searching.
+TEST(Pipeline, DragsWhatIsNeverRecognized) {
+  for (const int after : {2, 0})
+    for (const bool empty : {false, true}) {
+      TestCell cell(0, cycle::Strategy::ours);
+      if (!empty)
+        for (int k = 0; k < 2; ++k)
+          cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(-0.06f, 0.03f));
+      cell.estimator.blind = true;
+      cell.reconfigure([&](cycle::PipelineSettings<S>& ps) { ps.drag_unrecognized_after = after; });
+      const auto r1 = cell.pipeline->run_cycle();
+      ASSERT_TRUE(r1.error.empty()) << r1.error;
+      EXPECT_FALSE(r1.dragged);
+      std::vector<Eigen::Vector3f> before;
+      for (const auto& p : cell.scene.parts()) before.push_back(p.T_base_part.translation());
+      const auto r2 = cell.pipeline->run_cycle();
+      ASSERT_TRUE(r2.error.empty()) << r2.error;
+      const bool drags = after > 0 && !empty;
+      EXPECT_EQ(r2.dragged, drags) << "after " << after << " empty " << empty;
+      EXPECT_EQ(cell.gripper->dragged(), drags ? 1 : 0);
+      ASSERT_EQ(cell.scene.parts().size(), before.size());
+      if (empty) continue;
+      // The upper nut (the last part after the drag) moved 40 mm; the lower one stayed.
+      const Eigen::Vector3f top = cell.scene.parts().back().T_base_part.translation();
+      const float moved = std::min((top - before[0]).head<2>().norm(), (top - before[1]).head<2>().norm());
+      if (drags)
+        EXPECT_GT(moved, 0.035f);
+      else
+        EXPECT_LT(moved, 1e-4f);
+      EXPECT_EQ(cell.pipeline->run_cycle().search, !drags);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -209,6 +209,13 @@ struct PipelineSettings {
   /// neighbour the fused depth hides, or a pose the views keep getting wrong; both change when the part
   /// moves. 0: never.
   int drag_after_failures = 2;
+  /// After this many cycles in a row that neither grasp nor drag (searches included), a cycle that
+  /// finds nothing to grasp or drag drags the highest surface the fused depth shows in the bin
+  /// instead of searching again: parts the estimator does not recognize from any side (a tangle, two
+  /// parts leaning into one segment) stay where they are otherwise, and the run ends on them
+  /// (binpick_sim ours, 1280 × 1024, seed 3, pencil coupler run 2: two couplers, one leaning 41° on
+  /// the other, unrecognized in 4 of the last 5 cycles). 0: never.
+  int drag_unrecognized_after = 2;
   Scalar drag_distance = Scalar(0.04);       ///< [m]
   Scalar drag_press = Scalar(0.002);         ///< [m]
   Scalar drag_radius = Scalar(0.005);        ///< [m] the closed tool's footprint
@@ -716,6 +723,8 @@ class PickingPipeline {
       out.has_grasp = false;
       out.status = CycleStatus::nothing_recognized;
       if (!out.has_drag) plan_drag(T_base_ref, depth, blocked, positions, out);
+      if (!out.has_drag && s_.drag_unrecognized_after > 0 && searches_in_row_ + 1 >= s_.drag_unrecognized_after)
+        plan_unrecognized_drag(T_base_ref, depth, positions, out);
       return;
     }
     out.has_grasp = true;
@@ -744,42 +753,106 @@ class PickingPipeline {
     if (!can_drag<Gripper>::value || drags_in_row_ >= s_.max_drags_in_row) return;
     for (const std::size_t k : candidates) {
       if (!positions[k].allFinite()) continue;
-      const Vec3 away = drag_direction(T_base_ref, depth, positions, k);
+      const Vec3 away = drag_direction(T_base_ref, depth, positions[k], positions, k);
       if (away.isZero()) continue;
-      Pose T_from = Pose::Identity();
-      T_from.linear() = Vec3(1, -1, -1).asDiagonal();  // the tool straight down
-      T_from.translation() = positions[k];
-      T_from.translation().z() = std::max(surface_top(T_base_ref, depth, positions[k]) - s_.drag_press,
-                                          s_.bin_center.z() + s_.min_grasp_height);
-      Pose T_to = T_from;
-      T_to.translation() += s_.drag_distance * away.normalized();
-      // The tool stays off the walls.
-      const Scalar hx = s_.bin_length / 2 - s_.drag_radius - s_.drag_wall_distance / 2;
-      const Scalar hy = s_.bin_width / 2 - s_.drag_radius - s_.drag_wall_distance / 2;
-      T_to.translation().x() = std::clamp(T_to.translation().x(), s_.bin_center.x() - hx, s_.bin_center.x() + hx);
-      T_to.translation().y() = std::clamp(T_to.translation().y(), s_.bin_center.y() - hy, s_.bin_center.y() + hy);
-      out.has_drag = true;
-      out.T_base_drag_from = T_from;
-      out.T_base_drag_to = T_to;
-      Pose T_B = T_to;
-      T_B.translation().z() = s_.bin_center.z() + s_.bin_height + s_.lift_clearance;
-      out.next = plan_with_fallbacks(T_to.translation(), T_to.translation(), T_B);
-      out.plan_status = out.next.status;
-      next_B_ = T_B;
+      set_drag(T_base_ref, depth, positions[k], away, out);
       return;
     }
   }
 
-  /// Where to drag object k (base frame, horizontal; zero: nowhere): off the walls whose inner face lies
-  /// within drag_wall_distance (drag_from_wall; from both at a corner), else (drag_apart) away from the
-  /// nearest other recognized object within drag_wall_distance, else away from the surface piled
-  /// around it (pile_side).
-  Vec3 drag_direction(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const std::vector<Vec3>& positions,
-                      std::size_t k) const {
-    const Vec3 d = positions[k] - s_.bin_center;
+  /// Nothing offers a grasp or a drag for drag_unrecognized_after cycles in a row: a drag of the
+  /// highest surface the fused depth shows inside the bin (at least min_grasp_height above the floor,
+  /// drag_radius off the walls' inner faces, drag_wall_distance from every recognized object; a point
+  /// counts with the lowest height within drag_radius of it), along drag_direction, else, away from the walls,
+  /// toward the bin centre (along +x when within drag_distance of it).
+  void plan_unrecognized_drag(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const std::vector<Vec3>& positions,
+                              Processed& out) {
+    if (!can_drag<Gripper>::value || drags_in_row_ >= s_.max_drags_in_row || depth.empty()) return;
+    const Camera& cam = sensor_->camera();
+    // A grid of about a third of the tool's radius (in pixels at the bin floor's depth).
+    const Vec3 floor_ref = T_base_ref.inverse(Eigen::Isometry) * s_.bin_center;
+    const auto c = cam.project(floor_ref), e = cam.project(Vec3(floor_ref + Vec3(s_.drag_radius, 0, 0)));
+    const Scalar r_px = c && e ? (*e - *c).norm() : Scalar(3);
+    const int step = std::max(1, int(std::lround(std::min(r_px, Scalar(300)) / 3)));
+    const int w = (depth.width() + step - 1) / step, h = (depth.height() + step - 1) / step;
+    std::vector<Scalar> height(std::size_t(w) * std::size_t(h), -std::numeric_limits<Scalar>::infinity());
+    std::vector<Vec3> point(height.size(), Vec3::Zero());
+    const Scalar hx = s_.bin_length / 2 - s_.drag_radius, hy = s_.bin_width / 2 - s_.drag_radius;
+    for (int j = 0; j < h; ++j)
+      for (int i = 0; i < w; ++i) {
+        const Scalar z = depth.depth(i * step, j * step);
+        if (!(z > Scalar(0)) || !std::isfinite(z)) continue;
+        const Vec3 b = T_base_ref * Vec3(cam.backproject(Scalar(i * step), Scalar(j * step), z));
+        const Vec3 d = b - s_.bin_center;
+        if (std::abs(d.x()) > hx || std::abs(d.y()) > hy || d.z() > s_.bin_height) continue;
+        if (std::any_of(positions.begin(), positions.end(), [&](const Vec3& o) {
+              return (o - b).template head<2>().norm() < s_.drag_wall_distance;
+            }))
+          continue;  // recognized objects have their own rules (drag_from_wall, drag_apart)
+        const std::size_t k = std::size_t(j) * std::size_t(w) + std::size_t(i);
+        height[k] = d.z();
+        point[k] = b;
+      }
+    // Each grid point counts with the lowest height within the tool's radius (±3 cells): the tool
+    // needs that much surface to press on, and noise on the floor does not make one.
+    Scalar best = s_.min_grasp_height;
+    std::size_t at = height.size();
+    for (int j = 3; j + 3 < h; ++j)
+      for (int i = 3; i + 3 < w; ++i) {
+        Scalar low = std::numeric_limits<Scalar>::infinity();
+        for (int dj = -3; dj <= 3 && low > best; ++dj)
+          for (int di = -3; di <= 3; ++di) low = std::min(low, height[std::size_t(j + dj) * std::size_t(w) + std::size_t(i + di)]);
+        if (low > best) {
+          best = low;
+          at = std::size_t(j) * std::size_t(w) + std::size_t(i);
+        }
+      }
+    if (at == height.size()) return;
+    const Vec3 p = point[at];
+    Vec3 away = drag_direction(T_base_ref, depth, p, positions, positions.size());
+    if (away.isZero() && !near_wall(p)) {
+      const Vec3 to_centre(s_.bin_center.x() - p.x(), s_.bin_center.y() - p.y(), Scalar(0));
+      away = to_centre.norm() > s_.drag_distance ? to_centre : Vec3::UnitX();
+    }
+    set_drag(T_base_ref, depth, p, away, out);
+  }
+
+  /// A drag starting on the surface at p (drag_press into the highest fused depth within drag_radius)
+  /// and moving drag_distance along `away` (kept off the walls), and the next sensing path, aimed at
+  /// where the drag ends.
+  void set_drag(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const Vec3& p, const Vec3& away, Processed& out) {
+    Pose T_from = Pose::Identity();
+    T_from.linear() = Vec3(1, -1, -1).asDiagonal();  // the tool straight down
+    T_from.translation() = p;
+    T_from.translation().z() = std::max(surface_top(T_base_ref, depth, p) - s_.drag_press,
+                                        s_.bin_center.z() + s_.min_grasp_height);
+    Pose T_to = T_from;
+    T_to.translation() += s_.drag_distance * away.normalized();
+    // The tool stays off the walls.
+    const Scalar hx = s_.bin_length / 2 - s_.drag_radius - s_.drag_wall_distance / 2;
+    const Scalar hy = s_.bin_width / 2 - s_.drag_radius - s_.drag_wall_distance / 2;
+    T_to.translation().x() = std::clamp(T_to.translation().x(), s_.bin_center.x() - hx, s_.bin_center.x() + hx);
+    T_to.translation().y() = std::clamp(T_to.translation().y(), s_.bin_center.y() - hy, s_.bin_center.y() + hy);
+    out.has_drag = true;
+    out.T_base_drag_from = T_from;
+    out.T_base_drag_to = T_to;
+    Pose T_B = T_to;
+    T_B.translation().z() = s_.bin_center.z() + s_.bin_height + s_.lift_clearance;
+    out.next = plan_with_fallbacks(T_to.translation(), T_to.translation(), T_B);
+    out.plan_status = out.next.status;
+    next_B_ = T_B;
+  }
+
+  /// Where to drag what lies at p (base frame, horizontal; zero: nowhere): off the walls whose inner
+  /// face lies within drag_wall_distance (drag_from_wall; from both at a corner), else (drag_apart)
+  /// away from the nearest recognized object within drag_wall_distance (`positions` but the k-th, the
+  /// one at p if any), else away from the surface piled around it (pile_side).
+  Vec3 drag_direction(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const Vec3& p,
+                      const std::vector<Vec3>& positions, std::size_t k) const {
+    const Vec3 d = p - s_.bin_center;
     const bool near_x = s_.bin_length / 2 - std::abs(d.x()) < s_.drag_wall_distance;
     const bool near_y = s_.bin_width / 2 - std::abs(d.y()) < s_.drag_wall_distance;
-    if (near_x || near_y) {
+    if (near_wall(p)) {
       if (!s_.drag_from_wall) return Vec3::Zero();
       return Vec3(near_x ? (d.x() > 0 ? Scalar(-1) : Scalar(1)) : Scalar(0),
                   near_y ? (d.y() > 0 ? Scalar(-1) : Scalar(1)) : Scalar(0), Scalar(0));
@@ -788,13 +861,19 @@ class PickingPipeline {
     Scalar nearest = s_.drag_wall_distance;
     Vec3 away = Vec3::Zero();
     for (std::size_t j = 0; j < positions.size(); ++j) {
-      const Vec3 e = positions[k] - positions[j];
+      const Vec3 e = p - positions[j];
       const Scalar dist = e.template head<2>().norm();
       if (j == k || !(dist < nearest) || !(dist > Scalar(1e-3))) continue;
       nearest = dist;
       away = Vec3(e.x(), e.y(), 0);
     }
-    return away.isZero() ? -pile_side(T_base_ref, depth, positions[k]) : away;
+    return away.isZero() ? -pile_side(T_base_ref, depth, p) : away;
+  }
+
+  /// Whether p lies within drag_wall_distance of a wall's inner face (horizontally).
+  bool near_wall(const Vec3& p) const {
+    const Vec3 d = p - s_.bin_center;
+    return s_.bin_length / 2 - std::abs(d.x()) < s_.drag_wall_distance || s_.bin_width / 2 - std::abs(d.y()) < s_.drag_wall_distance;
   }
 
   /// The side of p where the surface of `depth` (view at T_base_ref) piles up: the mean horizontal
@@ -1185,6 +1264,7 @@ PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::PickingPipeline(Robot
     require(std::isfinite(d) && d >= 0, "drag_distance", "drag_wall_distance, drag_distance, drag_press and drag_radius must be finite and >= 0");
   require(s.max_drags_in_row >= 0, "max_drags_in_row", "must be >= 0");
   require(s.drag_after_failures >= 0, "drag_after_failures", "must be >= 0");
+  require(s.drag_unrecognized_after >= 0, "drag_unrecognized_after", "must be >= 0");
   require(s.jaw_tool.lo.allFinite() && s.jaw_tool.hi.allFinite(), "jaw_tool", "must be finite");
   require(s.cup_tool.lo.allFinite() && s.cup_tool.hi.allFinite(), "cup_tool", "must be finite");
   require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");
