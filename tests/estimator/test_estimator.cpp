@@ -567,6 +567,49 @@ TEST(GraspModel, JudgesTolerancesAndCollisions) {
   const Isometry3f Tp = pair.parts()[0].T_base_part * g.T_part_grasp;
   const auto hit = evaluate_pick(pair, type, Tp, model.gripper, g.opening);
   EXPECT_EQ(hit.status, PickStatus::part_collision) << to_string(hit.status);
+  EXPECT_TRUE(hit.part_collision_in_mesh);  // 1 mm apart: the 4 mm finger enters the neighbour itself
+  // 15.5 mm apart: 0.5 mm between the finger (10 mm off the axis) and the neighbour's side; its
+  // spheres reach 0.9 mm past that side.
+  Scene<float> gap;
+  gap.add_part(type, model.rest_orientations[0], Vector2<float>(0, 0));
+  gap.add_part(type, model.rest_orientations[0], Vector2<float>(0.0155f * across.x(), 0.0155f * across.y()));
+  const auto grazed = evaluate_pick(gap, type, gap.parts()[0].T_base_part * g.T_part_grasp, model.gripper, g.opening);
+  EXPECT_EQ(grazed.status, PickStatus::part_collision) << to_string(grazed.status);
+  EXPECT_FALSE(grazed.part_collision_in_mesh);
+}
+
+namespace {
+
+// Whether a dense barycentric sampling of the triangle (a, b, c) has a point within `grow` of the box
+// (grow < 0: at least -grow inside it).
+bool sampled_overlap(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                     const Eigen::Vector3d& c, double grow, int n) {
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; i + j <= n; ++j) {
+      const Eigen::Vector3d p = a + (b - a) * (double(i) / n) + (c - a) * (double(j) / n);
+      if (grow < 0 ? ((p - lo).minCoeff() >= -grow && (hi - p).minCoeff() >= -grow)
+                   : ((p - hi).cwiseMax(lo - p).cwiseMax(0.0)).norm() <= grow)
+        return true;
+    }
+  return false;
+}
+
+}  // namespace
+
+// The exact box–triangle test of the judge agrees with a dense sampling of the triangle: a sample in
+// the box (1 µm inside: touching is decided by rounding) means overlap, and overlap means a sample
+// within one sampling step of the box.
+RC_GTEST_PROP(GraspModel, BoxTriangleTestAgreesWithSampling, ()) {
+  const auto coord = [] { return *rc::gen::inRange(-30, 31) * 1e-3; };
+  Eigen::Vector3d lo(coord(), coord(), coord()), hi = lo;
+  hi += Eigen::Vector3d(*rc::gen::inRange(1, 25), *rc::gen::inRange(1, 25), *rc::gen::inRange(1, 25)) * 1e-3;
+  const Eigen::Vector3d a(coord(), coord(), coord()), b(coord(), coord(), coord()), c(coord(), coord(), coord());
+  const bool overlap = sim::detail::box_overlaps_triangle(lo, hi, a, b, c);
+  const int n = 120;
+  const double step = std::max({(b - a).norm(), (c - a).norm(), (c - b).norm()}) / n;
+  if (sampled_overlap(lo, hi, a, b, c, -1e-6, n)) RC_ASSERT(overlap);
+  if (overlap) RC_ASSERT(sampled_overlap(lo, hi, a, b, c, step, n));
+  RC_TAG(overlap ? "overlap" : "apart");
 }
 
 // End to end on clean depth of a sparse bin: most estimated reachable grasps are judged successful.

@@ -480,9 +480,10 @@ int main(int argc, char** argv) {
                       r.grips.offset_median_mm(2));
         return std::string(b);
       });
-      line("Hit parts / bin", [](const Row& r) {
+      line("Hit parts (in mesh) / bin", [](const Row& r) {
         char b[64];
-        std::snprintf(b, sizeof b, "%d / %d", r.grips.of(sim::PickStatus::part_collision), r.grips.of(sim::PickStatus::bin_collision));
+        std::snprintf(b, sizeof b, "%d (%d) / %d", r.grips.of(sim::PickStatus::part_collision), r.grips.part_collision_in_mesh,
+                      r.grips.of(sim::PickStatus::bin_collision));
         return std::string(b);
       });
       line("Cycles recognizing nothing", [](const Row& r) { return std::to_string(r.grips.nothing_recognized); });
@@ -514,6 +515,7 @@ int main(int argc, char** argv) {
          << ", \"missed_approach\": " << r.grips.missed[simcell::GripLedger::approach]
          << ", \"missed_closing\": " << r.grips.missed[simcell::GripLedger::closing]
          << ", \"part_collision\": " << r.grips.of(sim::PickStatus::part_collision)
+         << ", \"part_collision_in_mesh\": " << r.grips.part_collision_in_mesh
          << ", \"bin_collision\": " << r.grips.of(sim::PickStatus::bin_collision) << "}, \"nothing_recognized_cycles\": "
          << r.grips.nothing_recognized << ", \"offset_grips\": " << r.grips.offset_mm[0].size()
          << ", \"offset_x_mm\": " << json_number(r.grips.offset_median_mm(0))

@@ -52,6 +52,7 @@ struct GripLedger {
   int verdicts[kVerdicts] = {};  // grips per sim::PickStatus (success: held)
   int missed[kMisses] = {};
   int nothing_recognized = 0;  // cycles without a grasp to try (the next one searches)
+  int part_collision_in_mesh = 0;  // part collisions that also enter the neighbour's mesh (grasp_model.hpp)
   std::vector<double> offset_mm[3];  // per camera axis, grips within 2 x the position tolerance
   int of(sim::PickStatus s) const { return verdicts[int(s)]; }
   int held() const { return of(sim::PickStatus::success); }
@@ -60,6 +61,7 @@ struct GripLedger {
   template <typename Scalar>
   void record(const sim::PickOutcome<Scalar>& oc, const sim::GraspModelSettings<Scalar>& tol) {
     ++verdicts[int(oc.status)];
+    part_collision_in_mesh += oc.status == sim::PickStatus::part_collision && oc.part_collision_in_mesh;
     if (oc.status != sim::PickStatus::no_matching_grasp) return;
     missed[position] += !(oc.nearest_position_error <= tol.position_tolerance);
     missed[approach] += !(oc.nearest_angle_error <= tol.angle_tolerance);
@@ -87,6 +89,7 @@ struct GripLedger {
     for (int k = 0; k < kVerdicts; ++k) verdicts[k] += o.verdicts[k];
     for (int k = 0; k < kMisses; ++k) missed[k] += o.missed[k];
     nothing_recognized += o.nothing_recognized;
+    part_collision_in_mesh += o.part_collision_in_mesh;
   }
 };
 

@@ -7,7 +7,9 @@
 ///     jaws, the closing axis up to its sign), and
 ///  2. the gripper (two-finger jaws: two boxes; vacuum cup: a cylinder; estimator_model.hpp) hits
 ///     neither the bin (floor and walls) nor the collision spheres of any other part — the paper's
-///     failed picks came from gripper–box interference (§IV.B).
+///     failed picks came from gripper–box interference (§IV.B). The spheres contain the part's mesh
+///     and reach past it (up to about 2 mm on the hex nut's flats and the coupler's sides): for jaws,
+///     PickOutcome::part_collision_in_mesh says whether a finger also enters the neighbour's mesh.
 
 #include <algorithm>
 #include <cmath>
@@ -64,6 +66,9 @@ struct PickOutcome {
   /// of the type lies near; nearest_position_error is its norm otherwise). Averaged over many picks it
   /// shows an estimator's systematic error, e.g. a sensor's edge fattening pulling fits to one side.
   Vector3<Scalar> nearest_offset = Vector3<Scalar>::Zero();
+  /// With status part_collision: whether the gripper also overlaps the neighbour's mesh (jaws: an
+  /// exact box–triangle test), not only the spheres that contain it. Cups: always true (not tested).
+  bool part_collision_in_mesh = false;
   bool success() const { return status == PickStatus::success; }
 };
 
@@ -87,6 +92,57 @@ void for_each_true_grasp(const PartModel<Scalar>& model, const std::vector<Matri
     T_sym.linear() = S;
     for (const auto& g : model.grasps) f(Isometry3<Scalar>(T_base_part * T_sym * g.T_part_grasp));
   }
+}
+
+namespace detail {
+
+/// Whether the axis-aligned box [lo, hi] and the triangle (a, b, c) overlap: the separating-axis
+/// test over the box's 3 face normals, the triangle's normal and the 9 edge cross products.
+template <typename Scalar>
+bool box_overlaps_triangle(const Vector3<Scalar>& lo, const Vector3<Scalar>& hi, const Vector3<Scalar>& a,
+                           const Vector3<Scalar>& b, const Vector3<Scalar>& c) {
+  using V = Vector3<Scalar>;
+  const V centre = (lo + hi) / 2, half = (hi - lo) / 2;
+  const V v[3] = {a - centre, b - centre, c - centre};
+  const auto separated = [&](const V& axis) {
+    const Scalar p0 = axis.dot(v[0]), p1 = axis.dot(v[1]), p2 = axis.dot(v[2]);
+    const Scalar r = half.dot(axis.cwiseAbs());
+    return std::min({p0, p1, p2}) > r || std::max({p0, p1, p2}) < -r;
+  };
+  for (int k = 0; k < 3; ++k)
+    if (separated(V::Unit(k))) return false;
+  const V e[3] = {v[1] - v[0], v[2] - v[1], v[0] - v[2]};
+  if (separated(e[0].cross(e[1]))) return false;
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      if (separated(V::Unit(k).cross(e[j]))) return false;
+  return true;
+}
+
+}  // namespace detail
+
+/// Whether a finger of jaws at T_grasp_base (the inverse of the grasp pose) with `opening` enters
+/// the mesh of a part of `scene` other than parts()[skip] (exact; the parts' bounding spheres first).
+template <typename Scalar>
+bool jaws_enter_mesh(const Scene<Scalar>& scene, int skip, const Isometry3<Scalar>& T_grasp_base,
+                     const GripperGeometry<Scalar>& gripper, Scalar opening) {
+  const auto boxes = detail::finger_boxes(gripper, opening);
+  Scalar reach = 0;  // of the fingers from the grasp point
+  for (const auto& b : boxes) reach = std::max(reach, b.lo.cwiseAbs().cwiseMax(b.hi.cwiseAbs()).norm());
+  for (std::size_t i = 0; i < scene.parts().size(); ++i) {
+    if (int(i) == skip) continue;
+    const auto& part = scene.parts()[i];
+    const auto& model = scene.model(part.type);
+    const Isometry3<Scalar> T = T_grasp_base * part.T_base_part;
+    if (T.translation().norm() > reach + model.bounding_radius) continue;
+    for (const auto& t : model.mesh.triangles) {
+      const Vector3<Scalar> a = T * model.mesh.vertices[std::size_t(t[0])], b = T * model.mesh.vertices[std::size_t(t[1])],
+                            c = T * model.mesh.vertices[std::size_t(t[2])];
+      for (const auto& box : boxes)
+        if (detail::box_overlaps_triangle(box.lo, box.hi, a, b, c)) return true;
+    }
+  }
+  return false;
 }
 
 /// Judges a pick of a `type` part at T_base_grasp (gripper `kind`, jaw `opening` [m]) in `scene`.
@@ -168,6 +224,7 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
       }
       if (hit) {
         out.status = PickStatus::part_collision;
+        out.part_collision_in_mesh = kind != cycle::GripperKind::two_finger || jaws_enter_mesh(scene, out.part_index, T_grasp_base, gg, opening);
         return out;
       }
     }
