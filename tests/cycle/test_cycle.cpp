@@ -508,6 +508,18 @@ TEST(Pipeline, RejectsBadSettings) {
   ps = {};
   ps.confident_percent = 101;
   EXPECT_THROW(TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps), std::invalid_argument);
+  ps = {};
+  ps.drag_after_failures = -1;
+  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
+                          "drag_after_failures");
+  ps = {};
+  ps.drag_unrecognized_after = -1;
+  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
+                          "drag_unrecognized_after");
+  ps = {};
+  ps.drag_surface_height = std::numeric_limits<S>::quiet_NaN();
+  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
+                          "drag_surface_height");
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -216,6 +216,10 @@ struct PipelineSettings {
   /// (binpick_sim ours, 1280 × 1024, seed 3, pencil coupler run 2: two couplers, one leaning 41° on
   /// the other, unrecognized in 4 of the last 5 cycles). 0: never.
   int drag_unrecognized_after = 2;
+  /// [m] The least height above the floor of a surface the drag of drag_unrecognized_after presses
+  /// on: above the fused depth's error on the floor (at 640 × 512 on the simulated metal sensor, a
+  /// patch of floor beside a LAN connector measured 2.8 mm high over the tool's whole footprint).
+  Scalar drag_surface_height = Scalar(0.004);
   Scalar drag_distance = Scalar(0.04);       ///< [m]
   Scalar drag_press = Scalar(0.002);         ///< [m]
   Scalar drag_radius = Scalar(0.005);        ///< [m] the closed tool's footprint
@@ -761,9 +765,10 @@ class PickingPipeline {
   }
 
   /// Nothing offers a grasp or a drag for drag_unrecognized_after cycles in a row: a drag of the
-  /// highest surface the fused depth shows inside the bin (at least min_grasp_height above the floor,
-  /// drag_radius off the walls' inner faces, drag_wall_distance from every recognized object; a point
-  /// counts with the lowest height within drag_radius of it), along drag_direction, else, away from the walls,
+  /// highest surface the fused depth shows inside the bin (at least drag_surface_height above the floor,
+  /// drag_radius + drag_wall_distance / 2 off the walls' inner faces, drag_wall_distance from every
+  /// recognized object; a point
+  /// counts with the median height within drag_radius of it), along drag_direction, else, away from the walls,
   /// toward the bin centre (along +x when within drag_distance of it).
   void plan_unrecognized_drag(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const std::vector<Vec3>& positions,
                               Processed& out) {
@@ -777,7 +782,9 @@ class PickingPipeline {
     const int w = (depth.width() + step - 1) / step, h = (depth.height() + step - 1) / step;
     std::vector<Scalar> height(std::size_t(w) * std::size_t(h), -std::numeric_limits<Scalar>::infinity());
     std::vector<Vec3> point(height.size(), Vec3::Zero());
-    const Scalar hx = s_.bin_length / 2 - s_.drag_radius, hy = s_.bin_width / 2 - s_.drag_radius;
+    // As far off the walls as a drag may end (set_drag): a stereo sensor fattens the wall tops inward.
+    const Scalar off_walls = s_.drag_radius + s_.drag_wall_distance / 2;
+    const Scalar hx = s_.bin_length / 2 - off_walls, hy = s_.bin_width / 2 - off_walls;
     for (int j = 0; j < h; ++j)
       for (int i = 0; i < w; ++i) {
         const Scalar z = depth.depth(i * step, j * step);
@@ -793,17 +800,25 @@ class PickingPipeline {
         height[k] = d.z();
         point[k] = b;
       }
-    // Each grid point counts with the lowest height within the tool's radius (±3 cells): the tool
-    // needs that much surface to press on, and noise on the floor does not make one.
-    Scalar best = s_.min_grasp_height;
+    // Each grid point counts with the median height measured within the tool's radius (±3 cells):
+    // the tool needs surface to press on, and a spike of noise on the floor does not make one. Shiny
+    // metal leaves holes in the depth: half of the 49 cells measured is enough.
+    Scalar best = s_.drag_surface_height;
     std::size_t at = height.size();
+    Scalar window[49];
     for (int j = 3; j + 3 < h; ++j)
       for (int i = 3; i + 3 < w; ++i) {
-        Scalar low = std::numeric_limits<Scalar>::infinity();
-        for (int dj = -3; dj <= 3 && low > best; ++dj)
-          for (int di = -3; di <= 3; ++di) low = std::min(low, height[std::size_t(j + dj) * std::size_t(w) + std::size_t(i + di)]);
-        if (low > best) {
-          best = low;
+        if (!(height[std::size_t(j) * std::size_t(w) + std::size_t(i)] > best)) continue;
+        int measured = 0;
+        for (int dj = -3; dj <= 3; ++dj)
+          for (int di = -3; di <= 3; ++di) {
+            const Scalar z = height[std::size_t(j + dj) * std::size_t(w) + std::size_t(i + di)];
+            if (z > -std::numeric_limits<Scalar>::infinity()) window[measured++] = z;  // else a hole
+          }
+        if (measured < 25) continue;
+        std::nth_element(window, window + measured / 2, window + measured);
+        if (window[measured / 2] > best) {
+          best = window[measured / 2];
           at = std::size_t(j) * std::size_t(w) + std::size_t(i);
         }
       }
@@ -1265,6 +1280,7 @@ PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::PickingPipeline(Robot
   require(s.max_drags_in_row >= 0, "max_drags_in_row", "must be >= 0");
   require(s.drag_after_failures >= 0, "drag_after_failures", "must be >= 0");
   require(s.drag_unrecognized_after >= 0, "drag_unrecognized_after", "must be >= 0");
+  require(std::isfinite(s.drag_surface_height), "drag_surface_height", "must be finite");
   require(s.jaw_tool.lo.allFinite() && s.jaw_tool.hi.allFinite(), "jaw_tool", "must be finite");
   require(s.cup_tool.lo.allFinite() && s.cup_tool.hi.allFinite(), "cup_tool", "must be finite");
   require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");
