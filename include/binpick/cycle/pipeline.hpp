@@ -23,8 +23,9 @@
 /// all; an object whose grasp the estimator found blocked never, unless `grasp_blocked`. When none
 /// offers a grasp and a blocked one lies against a wall, the cycle drags it off the wall instead
 /// (`drag_from_wall`, CycleResult::dragged); one away from the walls is dragged away from what
-/// crowds it (`drag_apart`), and so is an object at which grips keep failing (`drag_after_failures`).
-/// The first cycle uses a predefined path (Alg. 2 aimed at
+/// crowds it (`drag_apart`), and so is an object at which grips keep failing (`drag_after_failures`);
+/// when searching keeps finding nothing, the highest surface in the bin is dragged
+/// (`drag_unrecognized_after`). The first cycle uses a predefined path (Alg. 2 aimed at
 /// the bin centre from a home point above it). When nothing is recognized (or no grasp is reachable)
 /// the next cycle runs the *search move*:
 /// from the home point, an arc over the bin centre with `search_beta_factor` × β coverage — a wider
@@ -314,7 +315,7 @@ struct CycleResult {
   int index = 0;                 ///< cycle number of this pipeline, from 0
   bool placed = false;           ///< a part was released at C in this cycle
   bool search = false;           ///< this cycle ran the search move
-  bool dragged = false;          ///< instead of a grasp, this cycle dragged a part (drag_from_wall, drag_apart, drag_after_failures)
+  bool dragged = false;          ///< instead of a grasp, this cycle dragged (drag_from_wall, drag_apart, drag_after_failures, drag_unrecognized_after)
   int views = 0;                 ///< views fused
   int recognized = 0;            ///< objects the estimator returned
   PathSource path_source = PathSource::predefined;  ///< this cycle's sensing path
@@ -765,11 +766,11 @@ class PickingPipeline {
   }
 
   /// Nothing offers a grasp or a drag for drag_unrecognized_after cycles in a row: a drag of the
-  /// highest surface the fused depth shows inside the bin (at least drag_surface_height above the floor,
-  /// drag_radius + drag_wall_distance / 2 off the walls' inner faces, drag_wall_distance from every
-  /// recognized object; a point
-  /// counts with the median height within drag_radius of it), along drag_direction, else, away from the walls,
-  /// toward the bin centre (along +x when within drag_distance of it).
+  /// highest surface the fused depth shows inside the bin, along drag_direction, else (away from the
+  /// walls) toward the bin centre, along +x when within drag_distance of it. The surface stands at
+  /// least drag_surface_height above the floor, drag_radius + drag_wall_distance / 2 off the walls'
+  /// inner faces and drag_wall_distance from every recognized object; a point counts with the median
+  /// height within drag_radius of it.
   void plan_unrecognized_drag(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const std::vector<Vec3>& positions,
                               Processed& out) {
     if (!can_drag<Gripper>::value || drags_in_row_ >= s_.max_drags_in_row || depth.empty()) return;
