@@ -488,7 +488,7 @@ int main(int argc, char** argv) {
       });
       line("Cycles recognizing nothing", [](const Row& r) { return std::to_string(r.grips.nothing_recognized); });
       std::printf("Sensing in takt: %.3f s mean over %zu placing cycles (paper: 0.635 s ours, ~6 s Robot Fusion); "
-                  "searches: %.2f per run; drags (off a wall or apart): %.2f per run\n",
+                  "searches: %.2f per run; drags (of any kind): %.2f per run\n",
                   mean(takt), takt.size(), runs ? double(searches) / runs : 0.0, runs ? double(drags) / runs : 0.0);
       std::printf("Processing per cycle: fusion+ICP %.1f ms + planning %.2f ms = %.1f ms (measured); estimation %.0f ms; "
                   "whole processing phase with Table I hardware time %.0f ms; mean cycle %.2f s\n",
