@@ -783,9 +783,7 @@ class PickingPipeline {
     const int w = (depth.width() + step - 1) / step, h = (depth.height() + step - 1) / step;
     std::vector<Scalar> height(std::size_t(w) * std::size_t(h), -std::numeric_limits<Scalar>::infinity());
     std::vector<Vec3> point(height.size(), Vec3::Zero());
-    // As far off the walls as a drag may end (set_drag): a stereo sensor fattens the wall tops inward.
-    const Scalar off_walls = s_.drag_radius + s_.drag_wall_distance / 2;
-    const Scalar hx = s_.bin_length / 2 - off_walls, hy = s_.bin_width / 2 - off_walls;
+    const Scalar hx = s_.bin_length / 2 - drag_wall_margin(), hy = s_.bin_width / 2 - drag_wall_margin();
     for (int j = 0; j < h; ++j)
       for (int i = 0; i < w; ++i) {
         const Scalar z = depth.depth(i * step, j * step);
@@ -826,7 +824,7 @@ class PickingPipeline {
     if (at == height.size()) return;
     const Vec3 p = point[at];
     Vec3 away = drag_direction(T_base_ref, depth, p, positions, positions.size());
-    if (away.isZero() && !near_wall(p)) {
+    if (away.isZero() && off_walls(p).isZero()) {
       const Vec3 to_centre(s_.bin_center.x() - p.x(), s_.bin_center.y() - p.y(), Scalar(0));
       away = to_centre.norm() > s_.drag_distance ? to_centre : Vec3::UnitX();
     }
@@ -845,8 +843,7 @@ class PickingPipeline {
     Pose T_to = T_from;
     T_to.translation() += s_.drag_distance * away.normalized();
     // The tool stays off the walls.
-    const Scalar hx = s_.bin_length / 2 - s_.drag_radius - s_.drag_wall_distance / 2;
-    const Scalar hy = s_.bin_width / 2 - s_.drag_radius - s_.drag_wall_distance / 2;
+    const Scalar hx = s_.bin_length / 2 - drag_wall_margin(), hy = s_.bin_width / 2 - drag_wall_margin();
     T_to.translation().x() = std::clamp(T_to.translation().x(), s_.bin_center.x() - hx, s_.bin_center.x() + hx);
     T_to.translation().y() = std::clamp(T_to.translation().y(), s_.bin_center.y() - hy, s_.bin_center.y() + hy);
     out.has_drag = true;
@@ -865,14 +862,8 @@ class PickingPipeline {
   /// one at p if any), else away from the surface piled around it (pile_side).
   Vec3 drag_direction(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const Vec3& p,
                       const std::vector<Vec3>& positions, std::size_t k) const {
-    const Vec3 d = p - s_.bin_center;
-    const bool near_x = s_.bin_length / 2 - std::abs(d.x()) < s_.drag_wall_distance;
-    const bool near_y = s_.bin_width / 2 - std::abs(d.y()) < s_.drag_wall_distance;
-    if (near_wall(p)) {
-      if (!s_.drag_from_wall) return Vec3::Zero();
-      return Vec3(near_x ? (d.x() > 0 ? Scalar(-1) : Scalar(1)) : Scalar(0),
-                  near_y ? (d.y() > 0 ? Scalar(-1) : Scalar(1)) : Scalar(0), Scalar(0));
-    }
+    const Vec3 off = off_walls(p);
+    if (!off.isZero()) return s_.drag_from_wall ? off : Vec3::Zero();
     if (!s_.drag_apart) return Vec3::Zero();
     Scalar nearest = s_.drag_wall_distance;
     Vec3 away = Vec3::Zero();
@@ -886,11 +877,19 @@ class PickingPipeline {
     return away.isZero() ? -pile_side(T_base_ref, depth, p) : away;
   }
 
-  /// Whether p lies within drag_wall_distance of a wall's inner face (horizontally).
-  bool near_wall(const Vec3& p) const {
+  /// Off the walls whose inner face lies within drag_wall_distance of p (horizontally; from both at a
+  /// corner, not normalized); zero when p is near none.
+  Vec3 off_walls(const Vec3& p) const {
     const Vec3 d = p - s_.bin_center;
-    return s_.bin_length / 2 - std::abs(d.x()) < s_.drag_wall_distance || s_.bin_width / 2 - std::abs(d.y()) < s_.drag_wall_distance;
+    const auto off = [&](Scalar half, Scalar x) {
+      return half - std::abs(x) < s_.drag_wall_distance ? (x > 0 ? Scalar(-1) : Scalar(1)) : Scalar(0);
+    };
+    return Vec3(off(s_.bin_length / 2, d.x()), off(s_.bin_width / 2, d.y()), Scalar(0));
   }
+
+  /// How far off the walls' inner faces a drag ends or starts unrecognized (set_drag,
+  /// plan_unrecognized_drag) [m]: a stereo sensor fattens the wall tops inward.
+  Scalar drag_wall_margin() const { return s_.drag_radius + s_.drag_wall_distance / 2; }
 
   /// The side of p where the surface of `depth` (view at T_base_ref) piles up: the mean horizontal
   /// direction from p to its points within drag_wall_distance, each weighted by its height above the
