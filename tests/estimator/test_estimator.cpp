@@ -568,14 +568,30 @@ TEST(GraspModel, JudgesTolerancesAndCollisions) {
   const auto hit = evaluate_pick(pair, type, Tp, model.gripper, g.opening);
   EXPECT_EQ(hit.status, PickStatus::part_collision) << to_string(hit.status);
   EXPECT_TRUE(hit.part_collision_in_mesh);  // 1 mm apart: the 4 mm finger enters the neighbour itself
+  EXPECT_FALSE(hit.grazed_spheres_only);
+  GraspModelSettings<float> on_spheres;
+  on_spheres.jaws_against_mesh = false;
+  EXPECT_EQ(evaluate_pick(pair, type, Tp, model.gripper, g.opening, on_spheres).status, PickStatus::part_collision);
   // 15.5 mm apart: 0.5 mm between the finger (10 mm off the axis) and the neighbour's side; its
-  // spheres reach 0.9 mm past that side.
+  // spheres reach 0.9 mm past that side. Held when judged on the mesh (the default), failed on spheres.
   Scene<float> gap;
   gap.add_part(type, model.rest_orientations[0], Vector2<float>(0, 0));
   gap.add_part(type, model.rest_orientations[0], Vector2<float>(0.0155f * across.x(), 0.0155f * across.y()));
-  const auto grazed = evaluate_pick(gap, type, gap.parts()[0].T_base_part * g.T_part_grasp, model.gripper, g.opening);
-  EXPECT_EQ(grazed.status, PickStatus::part_collision) << to_string(grazed.status);
-  EXPECT_FALSE(grazed.part_collision_in_mesh);
+  const Isometry3f Tg = gap.parts()[0].T_base_part * g.T_part_grasp;
+  const auto grazed = evaluate_pick(gap, type, Tg, model.gripper, g.opening);
+  EXPECT_EQ(grazed.status, PickStatus::success) << to_string(grazed.status);
+  EXPECT_TRUE(grazed.grazed_spheres_only);
+  const auto grazed_on_spheres = evaluate_pick(gap, type, Tg, model.gripper, g.opening, on_spheres);
+  EXPECT_EQ(grazed_on_spheres.status, PickStatus::part_collision) << to_string(grazed_on_spheres.status);
+  EXPECT_FALSE(grazed_on_spheres.part_collision_in_mesh);
+  EXPECT_FALSE(grazed_on_spheres.grazed_spheres_only);
+  // Far apart: not even the spheres are reached.
+  Scene<float> apart;
+  apart.add_part(type, model.rest_orientations[0], Vector2<float>(0, 0));
+  apart.add_part(type, model.rest_orientations[0], Vector2<float>(0.03f * across.x(), 0.03f * across.y()));
+  const auto clear = evaluate_pick(apart, type, apart.parts()[0].T_base_part * g.T_part_grasp, model.gripper, g.opening);
+  EXPECT_EQ(clear.status, PickStatus::success) << to_string(clear.status);
+  EXPECT_FALSE(clear.grazed_spheres_only);
 }
 
 namespace {

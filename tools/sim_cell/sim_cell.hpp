@@ -53,6 +53,7 @@ struct GripLedger {
   int missed[kMisses] = {};
   int nothing_recognized = 0;  // cycles without a grasp to try (the next one searches)
   int part_collision_in_mesh = 0;  // part collisions that also enter the neighbour's mesh (grasp_model.hpp)
+  int grazed_spheres_only = 0;     // grips judged on the mesh whose fingers reached only a neighbour's spheres
   std::vector<double> offset_mm[3];  // per camera axis, grips within 2 x the position tolerance
   int of(sim::PickStatus s) const { return verdicts[int(s)]; }
   int held() const { return of(sim::PickStatus::success); }
@@ -62,6 +63,7 @@ struct GripLedger {
   void record(const sim::PickOutcome<Scalar>& oc, const sim::GraspModelSettings<Scalar>& tol) {
     ++verdicts[int(oc.status)];
     part_collision_in_mesh += oc.status == sim::PickStatus::part_collision && oc.part_collision_in_mesh;
+    grazed_spheres_only += oc.grazed_spheres_only;
     if (oc.status != sim::PickStatus::no_matching_grasp) return;
     missed[position] += !(oc.nearest_position_error <= tol.position_tolerance);
     missed[approach] += !(oc.nearest_angle_error <= tol.angle_tolerance);
@@ -90,6 +92,7 @@ struct GripLedger {
     for (int k = 0; k < kMisses; ++k) missed[k] += o.missed[k];
     nothing_recognized += o.nothing_recognized;
     part_collision_in_mesh += o.part_collision_in_mesh;
+    grazed_spheres_only += o.grazed_spheres_only;
   }
 };
 
@@ -169,6 +172,8 @@ struct CellOptions {
   std::uint64_t seed = 1;
   int width = 640, height = 512;
   int threads = 1;
+  /// The judge's verdict on jaws beside a neighbour (sim::GraspModelSettings::jaws_against_mesh).
+  bool jaws_against_mesh = true;
 };
 
 /// One bin with its drivers and a pipeline over them.
@@ -222,7 +227,9 @@ struct Cell {
     ps.confident_percent = es.min_confidence;
     es.min_confidence = kWeakConfidence;
     estimator = std::make_unique<sim::ReferenceEstimator<S, Camera>>(scene.model(o.part), es);
-    gripper = std::make_unique<SimGripper<S>>(scene, o.part);
+    sim::GraspModelSettings<S> judge;
+    judge.jaws_against_mesh = o.jaws_against_mesh;
+    gripper = std::make_unique<SimGripper<S>>(scene, o.part, judge);
     ps.fusion.num_threads = o.threads;
     pipeline = std::make_unique<Pipeline>(*robot, *sensor, *estimator, clock, *gripper, ps);
   }

@@ -6,10 +6,12 @@
 ///     part's registered grasps under every symmetry of the part (position, approach axis and, for
 ///     jaws, the closing axis up to its sign), and
 ///  2. the gripper (two-finger jaws: two boxes; vacuum cup: a cylinder; estimator_model.hpp) hits
-///     neither the bin (floor and walls) nor the collision spheres of any other part — the paper's
-///     failed picks came from gripper–box interference (§IV.B). The spheres contain the part's mesh
-///     and reach past it (up to about 2 mm on the hex nut's flats and the coupler's sides): for jaws,
-///     PickOutcome::part_collision_in_mesh says whether a finger also enters the neighbour's mesh.
+///     neither the bin (floor and walls) nor any other part — the paper's failed picks came from
+///     gripper–box interference (§IV.B). A neighbour is hit by jaws when a finger enters its mesh (an
+///     exact box–triangle test, GraspModelSettings::jaws_against_mesh), by a cup when the cup reaches
+///     into its collision spheres. The spheres contain the mesh and reach past it (up to about 2 mm
+///     on the hex nut's flats, 0.9 mm on the coupler's sides): judged on them, a finger passing half a
+///     millimetre beside a nut failed the grip.
 
 #include <algorithm>
 #include <cmath>
@@ -30,6 +32,9 @@ struct GraspModelSettings {
   Scalar position_tolerance = Scalar(0.003);   ///< grasp point within this of a true grasp point [m]
   Scalar angle_tolerance = Scalar(0.2);        ///< approach (and jaw closing) axes within this [rad] (≈ 11°)
   Scalar sample_spacing = Scalar(0.001);       ///< gripper shape sampled this finely against the bin [m]
+  /// Jaws hit a neighbour when a finger enters its mesh; false: when a finger reaches into its
+  /// collision spheres (the judge before the mesh test; up to 2 mm stricter). Cups: spheres either way.
+  bool jaws_against_mesh = true;
   GripperGeometry<Scalar> gripper;             ///< the shapes (same defaults as the estimator's)
 };
 
@@ -66,9 +71,13 @@ struct PickOutcome {
   /// of the type lies near; nearest_position_error is its norm otherwise). Averaged over many picks it
   /// shows an estimator's systematic error, e.g. a sensor's edge fattening pulling fits to one side.
   Vector3<Scalar> nearest_offset = Vector3<Scalar>::Zero();
-  /// With status part_collision: whether the gripper also overlaps the neighbour's mesh (jaws: an
-  /// exact box–triangle test), not only the spheres that contain it. Cups: always true (not tested).
+  /// With status part_collision: whether the gripper overlaps the neighbour's mesh (jaws: an exact
+  /// box–triangle test), not only the spheres that contain it. Cups: always true (not tested). Always
+  /// true for jaws with jaws_against_mesh.
   bool part_collision_in_mesh = false;
+  /// With jaws_against_mesh: the fingers reached into a neighbour's spheres but entered no mesh (a
+  /// grazing pass, no collision; the judge on spheres would have failed the grip).
+  bool grazed_spheres_only = false;
   bool success() const { return status == PickStatus::success; }
 };
 
@@ -122,26 +131,32 @@ bool box_overlaps_triangle(const Vector3<Scalar>& lo, const Vector3<Scalar>& hi,
 }  // namespace detail
 
 /// Whether a finger of jaws at T_grasp_base (the inverse of the grasp pose) with `opening` enters
-/// the mesh of a part of `scene` other than parts()[skip] (exact; the parts' bounding spheres first).
+/// the mesh of scene.parts()[index] (exact; the part's bounding sphere first).
 template <typename Scalar>
-bool jaws_enter_mesh(const Scene<Scalar>& scene, int skip, const Isometry3<Scalar>& T_grasp_base,
-                     const GripperGeometry<Scalar>& gripper, Scalar opening) {
+bool jaws_enter_part_mesh(const Scene<Scalar>& scene, std::size_t index, const Isometry3<Scalar>& T_grasp_base,
+                          const GripperGeometry<Scalar>& gripper, Scalar opening) {
   const auto boxes = detail::finger_boxes(gripper, opening);
   Scalar reach = 0;  // of the fingers from the grasp point
   for (const auto& b : boxes) reach = std::max(reach, b.lo.cwiseAbs().cwiseMax(b.hi.cwiseAbs()).norm());
-  for (std::size_t i = 0; i < scene.parts().size(); ++i) {
-    if (int(i) == skip) continue;
-    const auto& part = scene.parts()[i];
-    const auto& model = scene.model(part.type);
-    const Isometry3<Scalar> T = T_grasp_base * part.T_base_part;
-    if (T.translation().norm() > reach + model.bounding_radius) continue;
-    for (const auto& t : model.mesh.triangles) {
-      const Vector3<Scalar> a = T * model.mesh.vertices[std::size_t(t[0])], b = T * model.mesh.vertices[std::size_t(t[1])],
-                            c = T * model.mesh.vertices[std::size_t(t[2])];
-      for (const auto& box : boxes)
-        if (detail::box_overlaps_triangle(box.lo, box.hi, a, b, c)) return true;
-    }
+  const auto& part = scene.parts().at(index);
+  const auto& model = scene.model(part.type);
+  const Isometry3<Scalar> T = T_grasp_base * part.T_base_part;
+  if (T.translation().norm() > reach + model.bounding_radius) return false;
+  for (const auto& t : model.mesh.triangles) {
+    const Vector3<Scalar> a = T * model.mesh.vertices[std::size_t(t[0])], b = T * model.mesh.vertices[std::size_t(t[1])],
+                          c = T * model.mesh.vertices[std::size_t(t[2])];
+    for (const auto& box : boxes)
+      if (detail::box_overlaps_triangle(box.lo, box.hi, a, b, c)) return true;
   }
+  return false;
+}
+
+/// Whether a finger enters the mesh of any part of `scene` other than parts()[skip].
+template <typename Scalar>
+bool jaws_enter_mesh(const Scene<Scalar>& scene, int skip, const Isometry3<Scalar>& T_grasp_base,
+                     const GripperGeometry<Scalar>& gripper, Scalar opening) {
+  for (std::size_t i = 0; i < scene.parts().size(); ++i)
+    if (int(i) != skip && jaws_enter_part_mesh(scene, i, T_grasp_base, gripper, opening)) return true;
   return false;
 }
 
@@ -207,12 +222,13 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
   }
   const Isometry3<Scalar> T_grasp_base = T_base_grasp.inverse(Eigen::Isometry);
   const auto& gg = settings.gripper;
+  const bool jaws = kind == cycle::GripperKind::two_finger;
   for (std::size_t i = 0; i < scene.parts().size(); ++i) {
     if (int(i) == out.part_index) continue;
     for (const auto& s : scene.world_spheres(scene.parts()[i])) {
       const Vector3<Scalar> c = T_grasp_base * s.centre;
       bool hit = false;
-      if (kind == cycle::GripperKind::two_finger) {
+      if (jaws) {
         for (const auto& b : detail::finger_boxes(gg, opening)) {
           const Vector3<Scalar> q = c.cwiseMax(b.lo).cwiseMin(b.hi);
           hit = hit || (q - c).squaredNorm() < s.radius * s.radius;
@@ -222,11 +238,19 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
         const Scalar dr = std::max(c.template head<2>().norm() - gg.cup_radius, Scalar(0));
         hit = dz * dz + dr * dr < s.radius * s.radius;
       }
-      if (hit) {
+      if (!hit) continue;
+      // The spheres contain the mesh: only a part whose spheres the fingers reach can be entered.
+      const bool judged_on_spheres = !jaws || !settings.jaws_against_mesh;
+      const bool in_mesh = !jaws || (judged_on_spheres ? jaws_enter_mesh(scene, out.part_index, T_grasp_base, gg, opening)
+                                                       : jaws_enter_part_mesh(scene, i, T_grasp_base, gg, opening));
+      if (judged_on_spheres || in_mesh) {
         out.status = PickStatus::part_collision;
-        out.part_collision_in_mesh = kind != cycle::GripperKind::two_finger || jaws_enter_mesh(scene, out.part_index, T_grasp_base, gg, opening);
+        out.part_collision_in_mesh = in_mesh;
+        out.grazed_spheres_only = false;
         return out;
       }
+      out.grazed_spheres_only = true;
+      break;  // this part is not entered: its other spheres need no test
     }
   }
   out.status = PickStatus::success;
