@@ -100,20 +100,7 @@ inline Eigen::Matrix3d random_rotation(double max_angle) {
   return Eigen::AngleAxisd(uniform(-max_angle, max_angle), axis.normalized()).toRotationMatrix();
 }
 
-/// A bin-picking-like scene in front of a camera at the scene origin looking along +z: a floor about
-/// 0.32 m away (tilted up to 25°), 3–4 boxes on it and 0–2 cylinders. The boxes sit in different
-/// slots around the image centre and are tilted by 20°–40° so that their side faces show: the scene
-/// constrains all six degrees of freedom (a lone box seen from straight above would not).
-///
-/// Drawn at rapidcheck's nominal size whatever the case's size: a property's first cases run at size
-/// 0 and grow by one per 10 discards, and `uniform` then draws only from the low end of each range.
-/// Those piles (floor tilted -25°, boxes at 20°, small radii) are nearly one surface at 2 mm pixels:
-/// under Clang's argument order one seed (1276531261019345736, RC_PARAMS max_success=10) discarded
-/// every one of 100 cases as unobservable and the properties gave up. Shrinking is unchanged.
-inline AnalyticScene random_scene_at_drawn_size();
-inline AnalyticScene random_scene() {
-  return *rc::gen::resize(rc::kNominalSize, rc::gen::exec([] { return random_scene_at_drawn_size(); }));
-}
+/// random_scene()'s pile at the case's own size (see there).
 inline AnalyticScene random_scene_at_drawn_size() {
   AnalyticScene s;
   PlaneSurface floor;
@@ -144,6 +131,20 @@ inline AnalyticScene random_scene_at_drawn_size() {
     s.cylinders.push_back(c);
   }
   return s;
+}
+
+/// A bin-picking-like scene in front of a camera at the scene origin looking along +z: a floor about
+/// 0.32 m away (tilted up to 25°), 3–4 boxes on it and 0–2 cylinders. The boxes sit in different
+/// slots around the image centre and are tilted by 20°–40° so that their side faces show: the scene
+/// constrains all six degrees of freedom (a lone box seen from straight above would not).
+///
+/// Drawn at rapidcheck's nominal size whatever the case's size: a property's first cases run at size
+/// 0 and grow by one per 10 discards, and `uniform` then draws only from the low end of each range.
+/// Those piles (floor tilted -25°, boxes at 20°, small radii) are nearly one surface at 2 mm pixels:
+/// under Clang's argument order one seed (1276531261019345736, RC_PARAMS max_success=10) discarded
+/// every one of 100 cases as unobservable and the properties gave up. Shrinking is unchanged.
+inline AnalyticScene random_scene() {
+  return *rc::gen::resize(rc::kNominalSize, rc::gen::exec([] { return random_scene_at_drawn_size(); }));
 }
 
 /// The test camera: 160k × 120k pixels, about 56° × 43° field of view whatever k (>= 1): a pixel

@@ -223,13 +223,14 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
   const Isometry3<Scalar> T_grasp_base = T_base_grasp.inverse(Eigen::Isometry);
   const auto& gg = settings.gripper;
   const bool jaws = kind == cycle::GripperKind::two_finger;
+  const auto fingers = detail::finger_boxes(gg, opening);  // once, not per sphere
   for (std::size_t i = 0; i < scene.parts().size(); ++i) {
     if (int(i) == out.part_index) continue;
     for (const auto& s : scene.world_spheres(scene.parts()[i])) {
       const Vector3<Scalar> c = T_grasp_base * s.centre;
       bool hit = false;
       if (jaws) {
-        for (const auto& b : detail::finger_boxes(gg, opening)) {
+        for (const auto& b : fingers) {
           const Vector3<Scalar> q = c.cwiseMax(b.lo).cwiseMin(b.hi);
           hit = hit || (q - c).squaredNorm() < s.radius * s.radius;
         }
