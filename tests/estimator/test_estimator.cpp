@@ -539,9 +539,59 @@ TEST(GraspModel, JudgesTolerancesAndCollisions) {
   const auto held = evaluate_pick(scene, type, near, model.gripper, g.opening);
   EXPECT_EQ(held.status, PickStatus::success) << to_string(held.status);
   EXPECT_LT((held.nearest_offset - Eigen::Vector3f(0, -0.002f, 0)).norm(), 1e-5f);
+  // Turned by 23° about the approach axis: the closing axis is 23° off, beyond angle_tolerance.
+  const Eigen::Vector3f closing = T.linear().col(0), approach = T.linear().col(2);
   Isometry3f tilted = T;
-  tilted.linear() = Eigen::AngleAxisf(0.4f, Eigen::Vector3f::UnitX()).toRotationMatrix() * T.linear();
+  tilted.linear() = Eigen::AngleAxisf(0.4f, approach).toRotationMatrix() * T.linear();
   EXPECT_EQ(evaluate_pick(scene, type, tilted, model.gripper, g.opening).status, PickStatus::no_matching_grasp);
+  // Turned by 23° about the closing axis: the jaws' planes stay where they were, so the grip holds
+  // (within jaw_turn_tolerance, 29°) although the approach axis is 23° off; by 34° it misses, and so
+  // does the 23° turn when the approach axis must lie within angle_tolerance (jaw_turn_tolerance 0).
+  Isometry3f turned = T;
+  turned.linear() = Eigen::AngleAxisf(0.4f, closing).toRotationMatrix() * T.linear();
+  const auto turned_held = evaluate_pick(scene, type, turned, model.gripper, g.opening);
+  EXPECT_EQ(turned_held.status, PickStatus::success) << to_string(turned_held.status);
+  EXPECT_NEAR(turned_held.jaw_turn, 0.4f, 1e-3f);
+  EXPECT_NEAR(turned_held.angle_error, 0.4f, 1e-3f);
+  EXPECT_LT(turned_held.closing_error, 1e-3f);
+  EXPECT_LT(ok.jaw_turn, 1e-3f);
+  Isometry3f turned_far = T;
+  turned_far.linear() = Eigen::AngleAxisf(-0.6f, closing).toRotationMatrix() * T.linear();
+  EXPECT_EQ(evaluate_pick(scene, type, turned_far, model.gripper, g.opening).status, PickStatus::no_matching_grasp);
+  GraspModelSettings<float> approach_axis;
+  approach_axis.jaw_turn_tolerance = 0;
+  EXPECT_EQ(evaluate_pick(scene, type, turned, model.gripper, g.opening, approach_axis).status,
+            PickStatus::no_matching_grasp);
+  // A turn and a tilt of the closing axis together: the tilt still counts.
+  Isometry3f turned_tilted = T;
+  turned_tilted.linear() = Eigen::AngleAxisf(0.3f, approach).toRotationMatrix() *
+                           Eigen::AngleAxisf(0.3f, closing).toRotationMatrix() * T.linear();
+  EXPECT_EQ(evaluate_pick(scene, type, turned_tilted, model.gripper, g.opening).status, PickStatus::no_matching_grasp);
+  // The jaws closing from the other side (x and −x swapped) turn alike.
+  Isometry3f turned_flipped = turned;
+  turned_flipped.linear() = turned.linear() * Eigen::AngleAxisf(float(M_PI), Eigen::Vector3f::UnitZ()).toRotationMatrix();
+  EXPECT_EQ(evaluate_pick(scene, type, turned_flipped, model.gripper, g.opening).status, PickStatus::success);
+
+  // Collisions are judged at the turned pose: a coupler with one end at a wall, gripped in its middle.
+  // Turned 27° about the closing axis the fingers' upper ends swing 14 mm along the coupler's axis:
+  // into the wall when they swing toward it, clear of it the other way.
+  Scene<float> at_wall;
+  at_wall.add_part(type, model.rest_orientations[0], Vector2<float>(0, 1.0f));  // clamped to the +y wall
+  const Isometry3f Tw = at_wall.parts()[0].T_base_part * g.T_part_grasp;
+  const float to_wall = at_wall.bin().width / 2 - Tw.translation().y();
+  ASSERT_GT(to_wall, 0.006f);
+  ASSERT_LT(to_wall, 0.0165f);
+  ASSERT_EQ(evaluate_pick(at_wall, type, Tw, model.gripper, g.opening).status, PickStatus::success);
+  int into_wall = 0, clear_of_wall = 0;
+  for (const float sign : {-1.0f, 1.0f}) {
+    Isometry3f Tt = Tw;
+    Tt.linear() = Eigen::AngleAxisf(sign * 0.48f, Tw.linear().col(0)).toRotationMatrix() * Tw.linear();
+    const auto r = evaluate_pick(at_wall, type, Tt, model.gripper, g.opening);
+    into_wall += r.status == PickStatus::bin_collision;
+    clear_of_wall += r.status == PickStatus::success;
+  }
+  EXPECT_EQ(into_wall, 1);
+  EXPECT_EQ(clear_of_wall, 1);
 
   // Against the wall: the same part dropped into a corner, the jaw closing toward the wall.
   Scene<float> corner;

@@ -65,6 +65,7 @@ struct Options {
   double fault_rate = 0;     // probability of a driver fault per cycle [-]
   double compute_time = -1;  // fixed compute time per cycle on the simulated clock [s]; < 0: measured
   bool judge_spheres = false;  // jaws hit a neighbour when they reach into its collision spheres
+  bool judge_approach_axis = false;  // jaws' approach axis within the angle tolerance (no turn about the closing axis)
 };
 
 struct RunResult {
@@ -83,7 +84,7 @@ int usage(const char* argv0) {
                "usage: %s [--types all|NAME,...] [--runs R] [--parts P] [--strategies ours,A,B,C] [--seed N]\n"
                "          [--json] [--csv FILE] [--out DIR] [--full] [--jobs J] [--max-failures K]\n"
                "          [--params FILE] [--resolution 640x512|1280x1024|320x256] [--summary FILE]\n"
-               "          [--fault-rate F] [--compute-time MS] [--judge-spheres]\n"
+               "          [--fault-rate F] [--compute-time MS] [--judge-spheres] [--judge-approach-axis]\n"
                "  The picking test of Table III in the simulated cell (all figures simulated).\n"
                "  Defaults: all 5 types, 1 run of 10 parts, 640x512, 2 jobs.\n"
                "  --full: 20 runs of 20 parts at the sensor's full 1280x1024 (what --runs, --parts and\n"
@@ -102,6 +103,8 @@ int usage(const char* argv0) {
                "  measured time, so every cycle is the same on any machine (measured times are still reported).\n"
                "  --judge-spheres: jaws fail a grip when a finger reaches into a neighbour's collision spheres,\n"
                "  which reach up to 2 mm past its mesh (the judge before it tested the mesh itself).\n"
+               "  --judge-approach-axis: jaws fail a grip whose approach axis is off by more than the angle\n"
+               "  tolerance even when only turned about the closing axis (the judge before it let jaws turn so).\n"
                "  --out DIR: fused_depth.png, fused_depth_mm.png, votes.png, sensing_path.svg, timeline.svg of\n"
                "  one cycle of ours (the second cycle of the first run of the first type).\n",
                argv0);
@@ -188,6 +191,7 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
   co.width = o.width;
   co.height = o.height;
   co.jaws_against_mesh = !o.judge_spheres;
+  if (o.judge_approach_axis) co.jaw_turn_tolerance = 0;
   cycle::PipelineSettings<float> ps;
   ps.strategy = strategy;
   ps.num_views = prm.n;
@@ -262,13 +266,19 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
     if (grasped)
       std::snprintf(tilt, sizeof tilt, "%.1f,%d", std::acos(std::clamp(-double(r.T_base_grasp.linear()(2, 2)), -1.0, 1.0)) * 180 / M_PI,
                     int(r.grasp_clear));
+    // The jaws' turn about the closing axis of a grip judged by it (matched, else to the nearest grasp).
+    char turn[32] = "";
+    if (grasped && cell.gripper->last_outcome().approach_by_turn) {
+      const auto& oc = cell.gripper->last_outcome();
+      std::snprintf(turn, sizeof turn, "%.1f", double(oc.part_index >= 0 ? oc.jaw_turn : oc.nearest_jaw_turn) * 180 / M_PI);
+    }
     char buf[800];
-    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d%s,%s,%s,%s\n",
+    std::snprintf(buf, sizeof buf, "%s,%s,%d,%d,%s,%s,%d,%d,%d,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d%s,%s,%s,%s,%s\n",
                   cycle::to_string(strategy), sim::part_type_name(type), run, r.index, cycle::to_string(r.status), cause, int(r.placed),
                   int(r.search), r.views, r.recognized, cycle::to_string(r.path_source),
                   plan_status_id(r.next_plan_status), r.takt.cycle_time, r.takt.detour, r.takt.robot_wait,
                   r.takt.sensing_in_takt(), r.takt.processing, r.fusion_ms, r.estimation_ms, r.planning_ms, cell.remaining(),
-                  diag.c_str(), tilt, fired ? simcell::to_string(arm.fault) : "-", offset);
+                  diag.c_str(), tilt, fired ? simcell::to_string(arm.fault) : "-", offset, turn);
     rr.csv_rows.push_back(buf);
     // Pictures of the first cycle that placed a part (processing in parallel with the drop), else of
     // the last cycle.
@@ -307,6 +317,7 @@ int main(int argc, char** argv) {
       else if (a == "--params") o.params = next();
       else if (a == "--full") full = true;
       else if (a == "--judge-spheres") o.judge_spheres = true;
+      else if (a == "--judge-approach-axis") o.judge_approach_axis = true;
       else if (a == "--jobs") o.jobs = std::stoi(next());
       else if (a == "--max-failures") o.max_failures = std::stoi(next());
       else if (a == "--fault-rate") o.fault_rate = std::stod(next());
@@ -393,7 +404,7 @@ int main(int argc, char** argv) {
     std::ofstream f(o.csv);
     f << "strategy,type,run,cycle,status,cause,placed,search,views,recognized,path_source,next_plan_status,cycle_time_s,detour_s,"
          "robot_wait_s,sensing_in_takt_s,processing_phase_s,fusion_icp_ms,estimation_ms,planning_ms,remaining,grasp_error_mm,approach_error_deg,closing_error_deg,grasp_tilt_deg,grasp_clear,fault,"
-         "grasp_offset_x_mm,grasp_offset_y_mm,grasp_offset_z_mm\n";
+         "grasp_offset_x_mm,grasp_offset_y_mm,grasp_offset_z_mm,jaw_turn_deg\n";
     for (const auto& r : results)
       for (const auto& row : r.csv_rows) f << row;
   }
@@ -402,7 +413,8 @@ int main(int argc, char** argv) {
   std::ostringstream js;
   js << "{\"runs\": " << o.runs << ", \"parts\": " << o.parts << ", \"seed\": " << o.seed << ", \"resolution\": "
      << json_string(std::to_string(o.width) + "x" + std::to_string(o.height))
-     << ", \"judge\": " << json_string(o.judge_spheres ? "spheres" : "mesh") << ", \"strategies\": {";
+     << ", \"judge\": " << json_string(o.judge_spheres ? "spheres" : "mesh") << ", \"jaw_turn_tolerance_rad\": "
+     << json_number(o.judge_approach_axis ? 0.0 : double(simcell::CellOptions{}.jaw_turn_tolerance)) << ", \"strategies\": {";
   bool first_s = true;
   for (auto s : o.strategies) {
     std::vector<double> takt, proc, fus, est, pla, phase, cyc;
@@ -494,6 +506,8 @@ int main(int argc, char** argv) {
       });
       if (!o.judge_spheres)
         line("Held, grazing spheres only", [](const Row& r) { return std::to_string(r.grips.grazed_spheres_only); });
+      if (!o.judge_approach_axis)
+        line("Held by the jaws' turn", [](const Row& r) { return std::to_string(r.grips.held_by_jaw_turn); });
       line("Cycles recognizing nothing", [](const Row& r) { return std::to_string(r.grips.nothing_recognized); });
       std::printf("Sensing in takt: %.3f s mean over %zu placing cycles (paper: 0.635 s ours, ~6 s Robot Fusion); "
                   "searches: %.2f per run; drags (of any kind): %.2f per run\n",
@@ -525,6 +539,7 @@ int main(int argc, char** argv) {
          << ", \"part_collision\": " << r.grips.of(sim::PickStatus::part_collision)
          << ", \"part_collision_in_mesh\": " << r.grips.part_collision_in_mesh
          << ", \"grazed_spheres_only\": " << r.grips.grazed_spheres_only
+         << ", \"held_by_jaw_turn\": " << r.grips.held_by_jaw_turn
          << ", \"bin_collision\": " << r.grips.of(sim::PickStatus::bin_collision) << "}, \"nothing_recognized_cycles\": "
          << r.grips.nothing_recognized << ", \"offset_grips\": " << r.grips.offset_mm[0].size()
          << ", \"offset_x_mm\": " << json_number(r.grips.offset_median_mm(0))

@@ -54,6 +54,7 @@ struct GripLedger {
   int nothing_recognized = 0;  // cycles without a grasp to try (the next one searches)
   int part_collision_in_mesh = 0;  // part collisions that also enter the neighbour's mesh (grasp_model.hpp)
   int grazed_spheres_only = 0;     // grips judged on the mesh whose fingers reached only a neighbour's spheres
+  int held_by_jaw_turn = 0;        // grips held with the approach beyond angle_tolerance, turned about the closing axis
   std::vector<double> offset_mm[3];  // per camera axis, grips within 2 x the position tolerance
   int of(sim::PickStatus s) const { return verdicts[int(s)]; }
   int held() const { return of(sim::PickStatus::success); }
@@ -64,9 +65,12 @@ struct GripLedger {
     ++verdicts[int(oc.status)];
     part_collision_in_mesh += oc.status == sim::PickStatus::part_collision && oc.part_collision_in_mesh;
     grazed_spheres_only += oc.grazed_spheres_only;
+    held_by_jaw_turn += oc.status == sim::PickStatus::success && oc.angle_error > tol.angle_tolerance;
     if (oc.status != sim::PickStatus::no_matching_grasp) return;
     missed[position] += !(oc.nearest_position_error <= tol.position_tolerance);
-    missed[approach] += !(oc.nearest_angle_error <= tol.angle_tolerance);
+    // Jaws free to turn about their closing axis miss on the approach only beyond that turn.
+    missed[approach] += oc.approach_by_turn ? !(oc.nearest_jaw_turn <= tol.jaw_turn_tolerance)
+                            : !(oc.nearest_angle_error <= tol.angle_tolerance);
     missed[closing] += !(oc.nearest_closing_error <= tol.angle_tolerance);
   }
   /// The offset of one grip (`T_base_camera`: the view its pose was estimated in), when within twice
@@ -93,6 +97,7 @@ struct GripLedger {
     nothing_recognized += o.nothing_recognized;
     part_collision_in_mesh += o.part_collision_in_mesh;
     grazed_spheres_only += o.grazed_spheres_only;
+    held_by_jaw_turn += o.held_by_jaw_turn;
   }
 };
 
@@ -174,6 +179,8 @@ struct CellOptions {
   int threads = 1;
   /// The judge's verdict on jaws beside a neighbour (sim::GraspModelSettings::jaws_against_mesh).
   bool jaws_against_mesh = true;
+  /// How far jaws may turn about their closing axis (sim::GraspModelSettings::jaw_turn_tolerance).
+  float jaw_turn_tolerance = sim::GraspModelSettings<float>{}.jaw_turn_tolerance;
 };
 
 /// One bin with its drivers and a pipeline over them.
@@ -229,6 +236,7 @@ struct Cell {
     estimator = std::make_unique<sim::ReferenceEstimator<S, Camera>>(scene.model(o.part), es);
     sim::GraspModelSettings<S> judge;
     judge.jaws_against_mesh = o.jaws_against_mesh;
+    judge.jaw_turn_tolerance = o.jaw_turn_tolerance;
     gripper = std::make_unique<SimGripper<S>>(scene, o.part, judge);
     ps.fusion.num_threads = o.threads;
     pipeline = std::make_unique<Pipeline>(*robot, *sensor, *estimator, clock, *gripper, ps);

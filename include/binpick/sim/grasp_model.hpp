@@ -4,7 +4,8 @@
 /// at an estimated grasp pose succeeds when
 ///  1. the grasp lies within the gripper's tolerance of a true grasp of a part of the same type — the
 ///     part's registered grasps under every symmetry of the part (position, approach axis and, for
-///     jaws, the closing axis up to its sign), and
+///     jaws, the closing axis up to its sign; jaws may also turn about their closing axis by up to
+///     GraspModelSettings::jaw_turn_tolerance), and
 ///  2. the gripper (two-finger jaws: two boxes; vacuum cup: a cylinder; estimator_model.hpp) hits
 ///     neither the bin (floor and walls) nor any other part — the paper's failed picks came from
 ///     gripper–box interference (§IV.B). A neighbour is hit by jaws when a finger enters its mesh (an
@@ -31,6 +32,13 @@ template <typename Scalar>
 struct GraspModelSettings {
   Scalar position_tolerance = Scalar(0.003);   ///< grasp point within this of a true grasp point [m]
   Scalar angle_tolerance = Scalar(0.2);        ///< approach (and jaw closing) axes within this [rad] (≈ 11°)
+  /// Jaws: how far [rad] their approach may turn about the true closing axis (≈ 29°); 0 = the approach
+  /// axis within angle_tolerance, as for cups (the judge before this setting). Parallel jaws lie in
+  /// two planes normal to the closing axis, and a turn about that axis leaves both planes where they
+  /// are: the jaws clamp the same faces, only the fingers' patches turn on them. A turn about any
+  /// other axis tilts the closing axis, which angle_tolerance bounds. Collisions are judged at the
+  /// turned pose as at any other. Past about 30° a finger's 8 mm patch leaves a small part's face.
+  Scalar jaw_turn_tolerance = Scalar(0.5);
   Scalar sample_spacing = Scalar(0.001);       ///< gripper shape sampled this finely against the bin [m]
   /// Jaws hit a neighbour when a finger enters its mesh; false: when a finger reaches into its
   /// collision spheres (the judge before the mesh test; up to 2 mm stricter). Cups: spheres either way.
@@ -62,11 +70,18 @@ struct PickOutcome {
   Scalar position_error = std::numeric_limits<Scalar>::infinity();  ///< to the matched true grasp [m]
   Scalar angle_error = std::numeric_limits<Scalar>::infinity();     ///< approach axis error [rad]
   Scalar closing_error = 0;  ///< jaw closing axis error (two-finger) [rad]
+  /// Jaws: the turn about the true closing axis between the approaches, left once the closing axes
+  /// are aligned [rad]; a grip held with angle_error above angle_tolerance was held by that turn.
+  Scalar jaw_turn = 0;
   /// When no grasp matched: the errors to the nearest true grasp of any part of the type regardless of
   /// the tolerances (diagnostics of why a pose missed; infinite when the bin holds none nearby).
   Scalar nearest_position_error = std::numeric_limits<Scalar>::infinity();  ///< [m]
   Scalar nearest_angle_error = std::numeric_limits<Scalar>::infinity();     ///< approach [rad]
   Scalar nearest_closing_error = std::numeric_limits<Scalar>::infinity();   ///< closing (two-finger) [rad]
+  Scalar nearest_jaw_turn = std::numeric_limits<Scalar>::infinity();        ///< turn about the closing axis [rad]
+  /// The approach was judged by the turn about the closing axis (jaws, jaw_turn_tolerance > 0), not
+  /// by the approach axis' angle.
+  bool approach_by_turn = false;
   /// The estimated grasp point minus the nearest true grasp point, base frame [m] (zero when no part
   /// of the type lies near; nearest_position_error is its norm otherwise). Averaged over many picks it
   /// shows an estimator's systematic error, e.g. a sensor's edge fattening pulling fits to one side.
@@ -170,6 +185,9 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
   const PartModel<Scalar>& model = scene.model(type);
   const auto syms = detail::symmetry_rotations<Scalar>(detail::part_symmetry(type), 360);
   const Vector3<Scalar> a_est = T_base_grasp.linear().col(2), x_est = T_base_grasp.linear().col(0);
+  const bool jaws = kind == cycle::GripperKind::two_finger;
+  const bool turn_free = jaws && settings.jaw_turn_tolerance > Scalar(0);
+  out.approach_by_turn = turn_free;
   // 1. The nearest matching true grasp.
   Scalar best = std::numeric_limits<Scalar>::infinity(), nearest = best;
   for (std::size_t i = 0; i < scene.parts().size(); ++i) {
@@ -181,18 +199,26 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
       const Scalar dp = (T_true.translation() - T_base_grasp.translation()).norm();
       const Scalar da = std::acos(std::clamp(T_true.linear().col(2).dot(a_est), Scalar(-1), Scalar(1)));
       // Jaws are symmetric: x and −x close alike.
-      const Scalar dx = kind == cycle::GripperKind::two_finger
-                            ? std::acos(std::clamp(std::abs(T_true.linear().col(0).dot(x_est)), Scalar(0), Scalar(1)))
-                            : Scalar(0);
+      const Vector3<Scalar> x_true = T_true.linear().col(0);
+      const Scalar dx = jaws ? std::acos(std::clamp(std::abs(x_true.dot(x_est)), Scalar(0), Scalar(1))) : Scalar(0);
+      // What is left between the approaches once the closing axes are aligned: a turn about x_true.
+      Scalar turn = 0;
+      if (turn_free) {
+        const Vector3<Scalar> x_near = x_true.dot(x_est) < Scalar(0) ? Vector3<Scalar>(-x_est) : x_est;
+        const Vector3<Scalar> a_aligned = Eigen::Quaternion<Scalar>::FromTwoVectors(x_near, x_true) * a_est;
+        turn = std::acos(std::clamp(a_aligned.dot(T_true.linear().col(2)), Scalar(-1), Scalar(1)));
+      }
+      const bool approach_ok = turn_free ? turn <= settings.jaw_turn_tolerance : da <= settings.angle_tolerance;
       const Scalar near_cost = dp / settings.position_tolerance + (da + dx) / settings.angle_tolerance;
       if (near_cost < nearest) {
         nearest = near_cost;
         out.nearest_position_error = dp;
         out.nearest_angle_error = da;
         out.nearest_closing_error = dx;
+        out.nearest_jaw_turn = turn;
         out.nearest_offset = T_base_grasp.translation() - T_true.translation();
       }
-      if (dp > settings.position_tolerance || da > settings.angle_tolerance || dx > settings.angle_tolerance) return;
+      if (dp > settings.position_tolerance || !approach_ok || dx > settings.angle_tolerance) return;
       const Scalar cost = dp / settings.position_tolerance + da / settings.angle_tolerance;
       if (cost < best) {
         best = cost;
@@ -201,6 +227,7 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
         out.position_error = dp;
         out.angle_error = da;
         out.closing_error = dx;
+        out.jaw_turn = turn;
       }
     });
   }
@@ -222,7 +249,6 @@ PickOutcome<Scalar> evaluate_pick(const Scene<Scalar>& scene, PartType type, con
   }
   const Isometry3<Scalar> T_grasp_base = T_base_grasp.inverse(Eigen::Isometry);
   const auto& gg = settings.gripper;
-  const bool jaws = kind == cycle::GripperKind::two_finger;
   const auto fingers = detail::finger_boxes(gg, opening);  // once, not per sphere
   for (std::size_t i = 0; i < scene.parts().size(); ++i) {
     if (int(i) == out.part_index) continue;
