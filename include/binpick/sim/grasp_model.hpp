@@ -72,6 +72,7 @@ struct PickOutcome {
   Scalar closing_error = 0;  ///< jaw closing axis error (two-finger) [rad]
   /// Jaws: the turn about the true closing axis between the approaches, left once the closing axes
   /// are aligned [rad]; a grip held with angle_error above angle_tolerance was held by that turn.
+  /// 0 unless approach_by_turn (as is nearest_jaw_turn once a part of the type lies near).
   Scalar jaw_turn = 0;
   /// When no grasp matched: the errors to the nearest true grasp of any part of the type regardless of
   /// the tolerances (diagnostics of why a pose missed; infinite when the bin holds none nearby).
