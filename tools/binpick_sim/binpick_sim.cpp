@@ -183,6 +183,11 @@ double standard_error(const std::vector<double>& v) {
   return std::sqrt(ss / double(v.size() - 1) / double(v.size()));
 }
 
+/// How far the judge lets jaws turn about their closing axis [rad] (sim::GraspModelSettings).
+float jaw_turn_tolerance(const Options& o) {
+  return o.judge_approach_axis ? 0.0f : simcell::CellOptions{}.jaw_turn_tolerance;
+}
+
 RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type, int run, const Params& prm, bool pictures) {
   simcell::CellOptions co;
   co.part = type;
@@ -191,7 +196,7 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
   co.width = o.width;
   co.height = o.height;
   co.jaws_against_mesh = !o.judge_spheres;
-  if (o.judge_approach_axis) co.jaw_turn_tolerance = 0;
+  co.jaw_turn_tolerance = jaw_turn_tolerance(o);
   cycle::PipelineSettings<float> ps;
   ps.strategy = strategy;
   ps.num_views = prm.n;
@@ -268,8 +273,7 @@ RunResult run_one(const Options& o, cycle::Strategy strategy, sim::PartType type
                     int(r.grasp_clear));
     // The jaws' turn about the closing axis of a grip judged by it (matched, else to the nearest grasp).
     char turn[32] = "";
-    if (grasped && cell.gripper->last_outcome().approach_by_turn) {
-      const auto& oc = cell.gripper->last_outcome();
+    if (const auto& oc = cell.gripper->last_outcome(); grasped && oc.approach_by_turn) {
       std::snprintf(turn, sizeof turn, "%.1f", double(oc.part_index >= 0 ? oc.jaw_turn : oc.nearest_jaw_turn) * 180 / M_PI);
     }
     char buf[800];
@@ -414,7 +418,7 @@ int main(int argc, char** argv) {
   js << "{\"runs\": " << o.runs << ", \"parts\": " << o.parts << ", \"seed\": " << o.seed << ", \"resolution\": "
      << json_string(std::to_string(o.width) + "x" + std::to_string(o.height))
      << ", \"judge\": " << json_string(o.judge_spheres ? "spheres" : "mesh") << ", \"jaw_turn_tolerance_rad\": "
-     << json_number(o.judge_approach_axis ? 0.0 : double(simcell::CellOptions{}.jaw_turn_tolerance)) << ", \"strategies\": {";
+     << json_number(double(jaw_turn_tolerance(o))) << ", \"strategies\": {";
   bool first_s = true;
   for (auto s : o.strategies) {
     std::vector<double> takt, proc, fus, est, pla, phase, cyc;
