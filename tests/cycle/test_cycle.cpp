@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <thread>
 
@@ -588,6 +589,18 @@ TEST(Strategies, DISABLED_OursBeatsRandomPath) {
   EXPECT_GT(ours, b) << "ours " << ours << ", B " << b << " of 12";
 }
 
+// A cell of `part` with an empty bin on `seed`, its compute time fixed on the simulated clock (the
+// same cycles on any machine); the rest of `ps` as the test sets it.
+static std::unique_ptr<simcell::Cell> empty_bin_cell(sim::PartType part, std::uint64_t seed, cycle::PipelineSettings<S> ps = {}) {
+  simcell::CellOptions o;
+  o.part = part;
+  o.parts = 0;
+  o.seed = seed;
+  ps.seed = seed;
+  ps.fixed_compute_time = 0.040;
+  return std::make_unique<simcell::Cell>(o, ps);
+}
+
 // A part lying beside a long wall is inside the region of interest and gets picked: the crop removes
 // the walls, not the parts next to them (a 15 mm margin left every part within ~1 cm of a wall unseen
 // to the end of its run; this test fails with it). One flange nut 3 mm from each long wall in turn,
@@ -595,21 +608,15 @@ TEST(Strategies, DISABLED_OursBeatsRandomPath) {
 // reference estimator does not recognize it: not covered.)
 TEST(Pipeline, PicksAPartLyingBesideALongWall) {
   for (int wall = 0; wall < 2; ++wall) {
-    simcell::CellOptions o;
-    o.part = sim::PartType::circle_nut;
-    o.parts = 0;
-    o.seed = 17 + std::uint64_t(wall);
-    cycle::PipelineSettings<S> ps;
-    ps.seed = o.seed;
-    ps.fixed_compute_time = 0.040;
-    simcell::Cell cell(o, ps);
+    const cycle::PipelineSettings<S> ps;
+    const auto cell = empty_bin_cell(sim::PartType::circle_nut, 17 + std::uint64_t(wall), ps);
     const S radius = S(0.010), gap = S(0.003);
     const S hy = ps.bin_width / 2 - radius - gap;
     const Eigen::Vector2f xy = wall == 0 ? Eigen::Vector2f(0.02f, -hy) : Eigen::Vector2f(-0.03f, hy);
-    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), xy);
+    cell->scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), xy);
     bool picked = false;
     for (int k = 0; k < 5 && !picked; ++k) {
-      const auto r = cell.pipeline->run_cycle();
+      const auto r = cell->pipeline->run_cycle();
       EXPECT_TRUE(r.error.empty()) << r.error;
       picked = r.status == cycle::CycleStatus::picked;
     }
@@ -624,23 +631,17 @@ TEST(Pipeline, PicksAPartLyingBesideALongWall) {
 // without the setting's effect.
 TEST(Pipeline, LooksAtSurfaceNoObjectExplains) {
   for (const bool look : {true, false}) {
-    simcell::CellOptions o;
-    o.part = sim::PartType::circle_nut;
-    o.parts = 0;
-    o.seed = 23;
     cycle::PipelineSettings<S> ps;
-    ps.seed = o.seed;
-    ps.fixed_compute_time = 0.040;
     ps.look_at_unexplained = look;
-    simcell::Cell cell(o, ps);
-    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(-0.06f, -0.02f));
-    cell.scene.add_part(sim::PartType::pencil_coupler, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.12f, 0.05f));
-    const Eigen::Vector2f nut = cell.scene.parts().front().T_base_part.translation().head<2>();
-    const Eigen::Vector2f coupler = cell.scene.parts().back().T_base_part.translation().head<2>();
+    const auto cell = empty_bin_cell(sim::PartType::circle_nut, 23, ps);
+    cell->scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(-0.06f, -0.02f));
+    cell->scene.add_part(sim::PartType::pencil_coupler, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.12f, 0.05f));
+    const Eigen::Vector2f nut = cell->scene.parts().front().T_base_part.translation().head<2>();
+    const Eigen::Vector2f coupler = cell->scene.parts().back().T_base_part.translation().head<2>();
     const Eigen::Vector2f centre = ps.bin_center.head<2>();
-    const auto first = cell.pipeline->run_cycle();
+    const auto first = cell->pipeline->run_cycle();
     ASSERT_EQ(first.status, cycle::CycleStatus::nothing_recognized) << "look " << look << ": " << cycle::to_string(first.status);
-    const auto search = cell.pipeline->run_cycle();
+    const auto search = cell->pipeline->run_cycle();
     ASSERT_TRUE(search.search);
     ASSERT_FALSE(search.T_base_captures_planned.empty());
     const Eigen::Vector2f target = search.target.head<2>();
@@ -652,13 +653,13 @@ TEST(Pipeline, LooksAtSurfaceNoObjectExplains) {
         << "the search aims at (" << target.x() << ", " << target.y() << "), at neither part";
     EXPECT_LT((search.T_base_captures_planned.front().translation().head<2>() - target).norm(), 0.02f)
         << "the search does not start above its target";
-    for (int k = 0; k < 4 && cell.remaining() == 2; ++k) {
-      const auto r = cell.pipeline->run_cycle();
+    for (int k = 0; k < 4 && cell->remaining() == 2; ++k) {
+      const auto r = cell->pipeline->run_cycle();
       ASSERT_TRUE(r.error.empty()) << r.error;
     }
-    ASSERT_EQ(cell.remaining(), 1) << "the circle nut was not picked";
-    ASSERT_EQ(cell.scene.parts().front().type, sim::PartType::pencil_coupler);
-    const auto next = cell.pipeline->run_cycle();  // aimed by the picking cycle's plan
+    ASSERT_EQ(cell->remaining(), 1) << "the circle nut was not picked";
+    ASSERT_EQ(cell->scene.parts().front().type, sim::PartType::pencil_coupler);
+    const auto next = cell->pipeline->run_cycle();  // aimed by the picking cycle's plan
     EXPECT_LT((next.target.head<2>() - coupler).norm(), 0.02f) << "the path after the last recognized part misses the coupler";
   }
 }
@@ -769,37 +770,31 @@ TEST(Pipeline, AGraspWhoseToolStandsInAWallIsNotTried) {
 // later one picks it.
 TEST(Pipeline, DragsAPartOffAWallThenPicksIt) {
   for (const bool drag : {true, false}) {
-    simcell::CellOptions o;
-    o.part = sim::PartType::lan_connector;
-    o.parts = 0;
-    o.seed = 23;
     cycle::PipelineSettings<S> ps;
-    ps.seed = o.seed;
-    ps.fixed_compute_time = 0.040;
     ps.drag_from_wall = drag;
     ps.drag_unrecognized_after = 0;  // the drag of unrecognized surface presses wherever the searches saw some
-    simcell::Cell cell(o, ps);
+    const auto cell = empty_bin_cell(sim::PartType::lan_connector, 23, ps);
     const Eigen::Matrix3f R = Eigen::AngleAxisf(float(M_PI / 2), Eigen::Vector3f::UnitZ()).toRotationMatrix();
-    cell.scene.add_part(sim::PartType::lan_connector, R, Eigen::Vector2f(0.03f, 0.2f));  // clamped against the wall
-    const S y0 = cell.scene.parts()[0].T_base_part.translation().y();
+    cell->scene.add_part(sim::PartType::lan_connector, R, Eigen::Vector2f(0.03f, 0.2f));  // clamped against the wall
+    const S y0 = cell->scene.parts()[0].T_base_part.translation().y();
     ASSERT_GT(y0, ps.bin_width / 2 - S(0.012));  // its end within 1.5 mm of the wall
     int dragged = 0, bin_hits = 0;
     bool picked = false;
     for (int k = 0; k < 6 && !picked; ++k) {
-      const auto r = cell.pipeline->run_cycle();
+      const auto r = cell->pipeline->run_cycle();
       ASSERT_TRUE(r.error.empty()) << r.error;
       dragged += r.dragged;
       picked = r.status == cycle::CycleStatus::picked;
-      bin_hits += r.status == cycle::CycleStatus::grasp_failed && cell.gripper->last_status() == sim::PickStatus::bin_collision;
+      bin_hits += r.status == cycle::CycleStatus::grasp_failed && cell->gripper->last_status() == sim::PickStatus::bin_collision;
       if (r.dragged) {
-        ASSERT_EQ(cell.scene.parts().size(), 1u);
-        EXPECT_LT(cell.scene.parts()[0].T_base_part.translation().y(), y0 - S(0.02)) << "the drag did not move it off the wall";
+        ASSERT_EQ(cell->scene.parts().size(), 1u);
+        EXPECT_LT(cell->scene.parts()[0].T_base_part.translation().y(), y0 - S(0.02)) << "the drag did not move it off the wall";
       }
     }
     EXPECT_EQ(bin_hits, 0) << "drag " << drag;
     EXPECT_EQ(picked, drag) << "drag " << drag;
     EXPECT_EQ(dragged > 0, drag);
-    EXPECT_EQ(cell.gripper->dragged(), dragged);
+    EXPECT_EQ(cell->gripper->dragged(), dragged);
   }
 }
 
