@@ -939,13 +939,19 @@ class ReferenceEstimator {
       T_camera_grasp = T_camera_object;
       return;
     }
-    std::stable_sort(options.begin(), options.end(), [](const Option& x, const Option& y) {
+    // Sorted through indices: std::stable_sort's buffer (libstdc++ 12) ignores the alignment an Option
+    // holding an Eigen pose needs with AVX (-march=native), and moving one into it crashed.
+    std::vector<std::size_t> order(options.size());
+    std::iota(order.begin(), order.end(), std::size_t(0));
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      const Option &x = options[a], &y = options[b];
       return x.in_sight != y.in_sight ? x.in_sight : x.key < y.key;
     });
     const Option* chosen = nullptr;
     const Isometry3<Scalar> T_object_camera = T_camera_object.inverse(Eigen::Isometry);
     std::vector<std::vector<Vec3>> gripper(grasps.size());  // its samples per grasp, made when first needed
-    for (const Option& o : options) {
+    for (const std::size_t i : order) {
+      const Option& o = options[i];
       if (!o.in_sight) break;
       std::vector<Vec3>& samples = gripper[o.grasp];
       if (samples.empty())
@@ -956,7 +962,7 @@ class ReferenceEstimator {
       break;
     }
     d.grasp_reachable = chosen != nullptr;
-    if (!chosen) chosen = &options.front();  // flagged: the best aligned one
+    if (!chosen) chosen = &options[order.front()];  // flagged: the best aligned one
     d.grasp_index = int(chosen->grasp);
     T_camera_grasp = chosen->T_camera_grasp;
   }
