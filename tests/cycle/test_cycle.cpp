@@ -526,16 +526,17 @@ TEST(Pipeline, RejectsBadSettings) {
                           "drag_surface_height");
   ps = {};
   ps.look_radius = 0;
-  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
-                          "look_radius");
+  const auto rejected = [&](const char* name) {
+    expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
+                            name);
+  };
+  rejected("look_radius");
   ps = {};
   ps.look_min_area = -1e-4f;
-  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
-                          "look_min_area");
+  rejected("look_min_area");
   ps = {};
   ps.look_wall_band = std::numeric_limits<S>::infinity();
-  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
-                          "look_wall_band");
+  rejected("look_wall_band");
 }
 
 // ---------------------------------------------------------------------------------------------------

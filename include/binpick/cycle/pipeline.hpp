@@ -942,7 +942,7 @@ class PickingPipeline {
   /// patch is a cell with its 8 neighbours, and its point is the mean of their points.
   bool unexplained_surface(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const std::vector<Vec3>& positions,
                            Vec3& floor_point) const {
-    if (depth.empty() || !(s_.look_radius > Scalar(0))) return false;
+    if (depth.empty()) return false;  // look_radius >= 1 mm: validated
     const Camera& cam = sensor_->camera();
     const int step = std::max(1, depth.width() / 320);  // about 320 samples per row: well under a millisecond
     const int gx = std::max(1, int(std::ceil(s_.bin_length / s_.look_radius))), gy = std::max(1, int(std::ceil(s_.bin_width / s_.look_radius)));
