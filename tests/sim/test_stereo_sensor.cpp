@@ -224,6 +224,37 @@ TEST(StereoSensor, CloseViewsLoseDifferentPixelsAndTheirUnionCoversMore) {
   EXPECT_GT(double(differ) / double(parts), 0.1);
 }
 
+// Vignetting (vignetting_power, cos^k off the optical axis) darkens a part at the edge of the field and
+// leaves one at its centre as it was: the same nut, the same view direction, seen at the image centre
+// and 25 cm to the side (≈ 40° off axis), with k = 0 (the default) and k = 2.
+TEST(StereoSensor, VignettingDarkensPartsAtTheEdgeOfTheField) {
+  Scene<float> scene;
+  scene.add_part(PartType::circle_nut, Matrix3<float>::Identity(), Vector2<float>(0, 0));
+  const Eigen::Vector3f target = scene.parts()[0].T_base_part.translation() + Eigen::Vector3f(0, 0, 0.0025f);
+  const float a = float(20.0 * M_PI / 180);  // off the top face's highlight
+  const Isometry3f centre = look_at(target + 0.3f * Eigen::Vector3f(0, std::sin(a), std::cos(a)), target);
+  Isometry3f edge = centre;
+  edge.translation() -= 0.25f * (centre.linear() * Eigen::Vector3f::UnitX());  // the nut 25 cm to the image's right
+  auto dark_share = [&](float k, const Isometry3f& T) {
+    auto s = small_settings(640, 512);
+    s.errors.vignetting_power = k;
+    const auto f = StereoSensor<float>(s).render(scene, T, 0);
+    std::size_t part = 0, dark = 0;
+    for (std::size_t i = 0; i < f.status.size(); ++i) {
+      if (f.part_index[i] != 0) continue;
+      ++part;
+      dark += f.status[i] == PixelStatus::too_dark;
+    }
+    EXPECT_GT(part, 200u);
+    return double(dark) / double(std::max<std::size_t>(part, 1));
+  };
+  const double c0 = dark_share(0, centre), c2 = dark_share(2, centre), e0 = dark_share(0, edge), e2 = dark_share(2, edge);
+  RecordProperty("too_dark_centre_k0_k2_edge_k0_k2",
+                 std::to_string(c0) + " " + std::to_string(c2) + " " + std::to_string(e0) + " " + std::to_string(e2));
+  EXPECT_NEAR(c2, c0, 0.03) << "at the centre of the field";
+  EXPECT_GT(e2, e0 + 0.1) << "at the edge: k=0 " << e0 << ", k=2 " << e2;
+}
+
 TEST(StereoSensor, GhostsLieBehindTheSurface) {
   SceneSettings<float> ss;
   ss.part_type = PartType::mirror_nut;
@@ -269,6 +300,9 @@ TEST(StereoSensor, BadSettingsNameTheArgument) {
   s = {};
   s.num_threads = -1;
   expect_named(s, "num_threads");
+  s = {};
+  s.errors.vignetting_power = -1;
+  expect_named(s, "vignetting_power");
   const StereoSensor<float> ok(small_settings(32, 32));
   Isometry3f bad = Isometry3f::Identity();
   bad.matrix()(0, 0) = 2;

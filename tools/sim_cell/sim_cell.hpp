@@ -177,6 +177,8 @@ struct CellOptions {
   std::uint64_t seed = 1;
   int width = 640, height = 512;
   int threads = 1;
+  /// The sensor's vignetting (sim::MetalErrorSettings::vignetting_power; 0 = none, the default).
+  float vignetting = 0;
   /// The judge's verdict on jaws beside a neighbour (sim::GraspModelSettings::jaws_against_mesh).
   bool jaws_against_mesh = true;
   /// How far jaws may turn about their closing axis (sim::GraspModelSettings::jaw_turn_tolerance).
@@ -216,6 +218,7 @@ struct Cell {
     st.height = o.height;
     st.seed = o.seed;
     st.num_threads = o.threads;
+    st.errors.vignetting_power = o.vignetting;
     fake_sensor = std::make_unique<sim::FakeSensor<S>>(scene, *fake_robot, clock, ps.T_flange_camera, st);
     robot = std::make_unique<Robot>(*fake_robot, clock);
     sensor = std::make_unique<Sensor>(*fake_sensor, *fake_robot);
