@@ -32,7 +32,8 @@
 ///     measured depth lies beyond the model by more than δ): confidence = 100 · (supported − empty) /
 ///     visible, in [0, 100];
 ///  5. keep: hypotheses above min_confidence, greedily by confidence, whose supported cells overlap
-///     no kept one by more than max_overlap;
+///     no kept one by more than max_overlap and, when the input gives the bin, whose part does not
+///     sink into its floor (max_floor_penetration);
 ///  6. grasp: of the grasps registered on the model, repeated under every symmetry of the part, those
 ///     approaching within max_approach_angle of the line of sight whose gripper shape
 ///     (detail::gripper_samples, opened to the larger of the grasp's opening and
@@ -125,6 +126,9 @@ struct ReferenceEstimatorSettings {
   Scalar explain_distance = Scalar(0.0015);    ///< a segment point this near the fitted model is explained [m]
   Scalar min_segment_explained = Scalar(0.6);  ///< fits explaining less of their segment are dropped
   Scalar min_confidence = Scalar(35);          ///< [%] weaker hypotheses are dropped
+  /// With the bin known (EstimatorInput::bin), a hypothesis whose part would reach more than this below
+  /// the floor is dropped: a flat piece of floor between holes fits a part sunk into it [m].
+  Scalar max_floor_penetration = Scalar(0.003);
   Scalar max_overlap = Scalar(0.3);            ///< share of a hypothesis' supported cells another kept one may own
   Scalar max_approach_angle = Scalar(1.05);    ///< grasp approach vs line of sight [rad] (60°)
   /// A gripper sample collides where the measured surface lies more than this in front of it [m]:
@@ -273,6 +277,8 @@ class ReferenceEstimator {
             "min_segment_explained", "must be in [0, 1]");
     require(std::isfinite(s.min_confidence) && s.min_confidence >= 0 && s.min_confidence <= 100, "min_confidence",
             "must be in [0, 100]");
+    require(std::isfinite(s.max_floor_penetration) && s.max_floor_penetration >= 0, "max_floor_penetration",
+            "must be finite and >= 0 [m]");
     require(std::isfinite(s.max_overlap) && s.max_overlap >= 0 && s.max_overlap <= 1, "max_overlap", "must be in [0, 1]");
     require(std::isfinite(s.max_approach_angle) && s.max_approach_angle >= 0, "max_approach_angle", "must be >= 0");
     require(std::isfinite(s.collision_margin) && s.collision_margin >= 0, "collision_margin", "must be >= 0");
@@ -367,12 +373,13 @@ class ReferenceEstimator {
     for (const std::size_t k : order) {
       const auto& h = best[k];
       if (h.model < 0 || !(h.confidence >= s_.min_confidence) || h.supported_cells.empty()) continue;
+      const auto& pm = models_[std::size_t(h.model)];
+      if (below_floor(input, pm.model, h.T_camera_object)) continue;
       std::size_t shared = 0;
       for (const auto cell : h.supported_cells) shared += owned[cell];
       if (Scalar(shared) > s_.max_overlap * Scalar(h.supported_cells.size())) continue;
       for (const auto cell : h.supported_cells) owned[cell] = 1;
       cycle::RecognizedObject<Scalar> obj;
-      const auto& pm = models_[std::size_t(h.model)];
       obj.part_type = int(pm.model.type);
       obj.T_camera_object = h.T_camera_object;
       obj.confidence_percent = h.confidence;
@@ -389,6 +396,18 @@ class ReferenceEstimator {
     out.result.status = out.result.objects.empty() ? cycle::EstimationStatus::no_objects : cycle::EstimationStatus::ok;
     out.runtime_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return out;
+  }
+
+  /// Whether the part at T_camera_object reaches more than max_floor_penetration below the known
+  /// bin's floor (false when the input gives no bin).
+  bool below_floor(const cycle::EstimatorInput<Scalar, Camera>& input, const PartModel<Scalar>& model,
+                   const Isometry3<Scalar>& T_camera_object) const {
+    if (!input.bin.known()) return false;
+    const Isometry3<Scalar> T_base_object = input.T_base_camera * T_camera_object;
+    const Scalar limit = input.bin.floor_center.z() - s_.max_floor_penetration;
+    for (const auto& v : model.mesh.vertices)
+      if ((T_base_object * v).z() < limit) return true;
+    return false;
   }
 
   static Scalar surface_area(const TriangleMesh<Scalar>& m) {
