@@ -10,8 +10,9 @@
 ///  3. radiance in the left and right camera: diffuse + GGX lobes lit by the projector (falling with
 ///     distance²), normalized to a white matte target at the working distance, darker off the optical
 ///     axis (vignetting, cos^k), times a per-camera speckle factor on a coarse grid. Saturated (bloom
-///     grown by a few px), too dark, or left and right too different → hole. Highlights therefore sit where the projector's mirror reflection
-///     enters a camera — they move with the view, so close views lose different pixels;
+///     grown by a few px), too dark, or left and right too different → hole. Highlights therefore sit
+///     where the projector's mirror reflection enters a camera — they move with the view, so close
+///     views lose different pixels;
 ///  4. ghosts: the left ray reflected at X reaches Y; where Y's light seen in the mirror outshines
 ///     X's own return, a locally flat mirror reports the unfolded path length |LX| + |XY| along the
 ///     ray (a fixed virtual point, behind the surface) and a curved one (over the matching window)
