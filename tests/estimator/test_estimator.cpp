@@ -75,6 +75,14 @@ cycle::EstimatorInput<float, Camera> input_of(const DepthImage<float>& depth, co
   return in;
 }
 
+// The scene's bin and the camera's pose in the input, as the cell passes them (EstimatorInput::bin).
+void give_bin(cycle::EstimatorInput<float, Camera>& in, const Scene<float>& scene, const Isometry3f& T_base_camera) {
+  in.bin.length = scene.bin().length;
+  in.bin.width = scene.bin().width;
+  in.bin.height = scene.bin().wall_height;
+  in.T_base_camera = T_base_camera;
+}
+
 struct Match {
   int truth = -1;
   float translation = 1e9f, rotation = 1e9f;  // [m], [rad]
@@ -373,10 +381,7 @@ TEST(ReferenceEstimator, KnownFloorRejectsPartsSunkIntoIt) {
   const StereoSensor<float> sensor(st), clean(sensor_settings(false));
   auto with_bin = [&](const Scene<float>& scene, const DepthImage<float>& depth) {
     auto in = input_of(depth, sensor.camera());
-    in.bin.length = scene.bin().length;
-    in.bin.width = scene.bin().width;
-    in.bin.height = scene.bin().wall_height;
-    in.T_base_camera = kReference;
+    give_bin(in, scene, kReference);
     return in;
   };
   const Scene<float> empty;
@@ -851,10 +856,7 @@ TEST(ReferenceEstimator, GripperCheckSeesWallsInTheObstacleDepth) {
   // (its choice above hits the bin too), the known bin does: no grasp is clear.
   EXPECT_EQ(judge(seeing.objects[0]), PickStatus::bin_collision);
   in.obstacles = DepthImageView<float>();
-  in.bin.length = scene.bin().length;
-  in.bin.width = scene.bin().width;
-  in.bin.height = scene.bin().wall_height;
-  in.T_base_camera = T_base_camera;
+  give_bin(in, scene, T_base_camera);
   const auto knowing = est.estimate(in);
   ASSERT_EQ(knowing.objects.size(), 1u);
   EXPECT_FALSE(knowing.objects[0].grasp_clear);

@@ -365,9 +365,8 @@ class ReferenceEstimator {
     out.hypotheses = std::accumulate(starts.begin(), starts.end(), 0);
 
     // 5. Keep the strongest, non-overlapping hypotheses (fixed order: the output does not depend on threads).
-    std::vector<std::size_t> order(best.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return best[a].confidence > best[b].confidence; });
+    const std::vector<std::size_t> order =
+        detail::stable_order(best.size(), [&](std::size_t a, std::size_t b) { return best[a].confidence > best[b].confidence; });
     std::vector<std::uint8_t>& owned = ws.owned;
     owned.assign(grid.points.size(), 0);
     for (const std::size_t k : order) {
@@ -699,10 +698,8 @@ class ReferenceEstimator {
         fitted_rank.push_back(h2.confidence * coverage(h2, sorted_cells));
         fitted.push_back(h2.T_camera_object);
       }
-      std::vector<std::size_t> order(fitted.size());
-      std::iota(order.begin(), order.end(), 0);
-      std::stable_sort(order.begin(), order.end(),
-                       [&](std::size_t a, std::size_t b) { return fitted_rank[a] > fitted_rank[b]; });
+      const std::vector<std::size_t> order =
+          detail::stable_order(fitted.size(), [&](std::size_t a, std::size_t b) { return fitted_rank[a] > fitted_rank[b]; });
       for (std::size_t k = 0; k < order.size() && k < std::size_t(s_.refined_starts); ++k) {
         detail::Hypothesis<Scalar> h2;
         h2.model = int(mi);
@@ -958,11 +955,8 @@ class ReferenceEstimator {
       T_camera_grasp = T_camera_object;
       return;
     }
-    // Sorted through indices: std::stable_sort's buffer (libstdc++ 12) ignores the alignment an Option
-    // holding an Eigen pose needs with AVX (-march=native), and moving one into it crashed.
-    std::vector<std::size_t> order(options.size());
-    std::iota(order.begin(), order.end(), std::size_t(0));
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    // Through indices: an Option holds an Eigen pose (detail::stable_order).
+    const std::vector<std::size_t> order = detail::stable_order(options.size(), [&](std::size_t a, std::size_t b) {
       const Option &x = options[a], &y = options[b];
       return x.in_sight != y.in_sight ? x.in_sight : x.key < y.key;
     });

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
@@ -42,6 +43,17 @@ struct GripperGeometry {
 };
 
 namespace detail {
+
+/// The indices 0..n−1 in the stable order of `before(a, b)` (by index). Sorting indices instead of the
+/// elements also keeps elements with Eigen members out of std::stable_sort's temporary buffer, which
+/// (libstdc++ 12) ignores the 32-byte alignment they need with AVX (-march=native) and crashed.
+template <typename Before>
+std::vector<std::size_t> stable_order(std::size_t n, Before before) {
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::stable_sort(order.begin(), order.end(), before);
+  return order;
+}
 
 /// An axis-aligned box in the grasp frame.
 template <typename Scalar>
