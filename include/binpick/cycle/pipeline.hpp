@@ -207,10 +207,10 @@ struct PipelineSettings {
   /// leaning 31° on an unrecognized one, blocked in 5 cycles in a row).
   bool drag_apart = true;
   /// An object at which this many grips failed since the last success (failures within
-  /// `retry_distance` of its grasp point) is dragged (off a wall, or as drag_apart) instead of gripped
-  /// again, when no other object offers a grasp. The cell does not know why a grip failed: a
-  /// neighbour the fused depth hides, or a pose the views keep getting wrong; both change when the part
-  /// moves. 0: never.
+  /// `retry_distance` of its grasp point) is dragged (off a wall, or as drag_apart, else toward the
+  /// bin centre) instead of gripped again, when no other object offers a grasp. The cell does not know
+  /// why a grip failed: a neighbour the fused depth hides, or a pose the views keep getting wrong; both
+  /// change when the part moves. 0: never.
   int drag_after_failures = 2;
   /// After this many cycles in a row that neither grasp nor drag (searches included), a cycle that
   /// finds nothing to grasp or drag drags the highest surface the fused depth shows in the bin
@@ -760,7 +760,7 @@ class PickingPipeline {
     }
     if (chosen != active_vision::no_grasped_object && s_.drag_after_failures > 0 &&
         chosen_failures >= s_.drag_after_failures && best_tier % 3 != 0)
-      plan_drag(T_base_ref, depth, {chosen}, positions, out);
+      plan_drag(T_base_ref, depth, {chosen}, positions, out, true);
     if (chosen == active_vision::no_grasped_object || out.has_drag) {
       out.has_grasp = false;
       out.status = CycleStatus::nothing_recognized;
@@ -796,14 +796,16 @@ class PickingPipeline {
     next_B_ = T_B;
   }
 
-  /// A drag of the first of the `candidates` with a direction to drag it in (drag_direction), and
-  /// the next sensing path, aimed at where the drag ends. Leaves `out` without a drag when none applies.
+  /// A drag of the first of the `candidates` with a direction to drag it in (drag_direction; with
+  /// `anyway`, drag_direction_or_centre), and the next sensing path, aimed at where the drag ends.
+  /// Leaves `out` without a drag when none applies.
   void plan_drag(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const std::vector<std::size_t>& candidates,
-                 const std::vector<Vec3>& positions, Processed& out) {
+                 const std::vector<Vec3>& positions, Processed& out, bool anyway = false) {
     if (!can_drag<Gripper>::value || drags_in_row_ >= s_.max_drags_in_row) return;
     for (const std::size_t k : candidates) {
       if (!positions[k].allFinite()) continue;
-      const Vec3 away = drag_direction(T_base_ref, depth, positions[k], positions, k);
+      const Vec3 away = anyway ? drag_direction_or_centre(T_base_ref, depth, positions[k], positions, k)
+                               : drag_direction(T_base_ref, depth, positions[k], positions, k);
       if (away.isZero()) continue;
       set_drag(T_base_ref, depth, positions[k], away, out);
       return;
@@ -868,12 +870,7 @@ class PickingPipeline {
       }
     if (at == height.size()) return;
     const Vec3 p = point[at];
-    Vec3 away = drag_direction(T_base_ref, depth, p, positions, positions.size());
-    if (away.isZero() && off_walls(p).isZero()) {
-      const Vec3 to_centre(s_.bin_center.x() - p.x(), s_.bin_center.y() - p.y(), Scalar(0));
-      away = to_centre.norm() > s_.drag_distance ? to_centre : Vec3::UnitX();
-    }
-    set_drag(T_base_ref, depth, p, away, out);
+    set_drag(T_base_ref, depth, p, drag_direction_or_centre(T_base_ref, depth, p, positions, positions.size()), out);
   }
 
   /// A drag starting on the surface at p (drag_press into the highest fused depth within drag_radius)
@@ -920,6 +917,17 @@ class PickingPipeline {
       away = Vec3(e.x(), e.y(), 0);
     }
     return away.isZero() ? -pile_side(T_base_ref, depth, p) : away;
+  }
+
+  /// drag_direction, else, away from the walls, toward the bin centre (along +x within drag_distance
+  /// of it): for a drag that must move the part although the depth shows nothing to drag it away from
+  /// (a part alone, or beside a neighbour the sensor misses; moving it is what changes the situation).
+  Vec3 drag_direction_or_centre(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const Vec3& p,
+                                const std::vector<Vec3>& positions, std::size_t k) const {
+    const Vec3 away = drag_direction(T_base_ref, depth, p, positions, k);
+    if (!away.isZero() || !off_walls(p).isZero()) return away;
+    const Vec3 to_centre(s_.bin_center.x() - p.x(), s_.bin_center.y() - p.y(), Scalar(0));
+    return to_centre.norm() > s_.drag_distance ? to_centre : Vec3::UnitX();
   }
 
   /// Off the walls whose inner face lies within drag_wall_distance of p (horizontally; from both at a
