@@ -630,13 +630,16 @@ TEST(Pipeline, PicksAPartLyingBesideALongWall) {
 
 // look_at_unexplained: a circle nut and a pencil coupler standing on end, which the cell's estimator
 // (circle-nut models only) never explains. The predefined look over the bin centre recognizes
-// nothing; the search then starts above surface the fused depth showed (with the setting off: the bin
-// centre's search). Once the nut is picked, the next path aims at the coupler. Each check fails
+// nothing; the search then starts above surface the fused depth showed (with the setting off, and for
+// baseline B: the bin centre's search). Once the nut is picked, the next path aims at the coupler. Each check fails
 // without the setting's effect.
 TEST(Pipeline, LooksAtSurfaceNoObjectExplains) {
-  for (const bool look : {true, false}) {
+  for (const int mode : {0, 1, 2}) {
+    // 0: ours; 1: ours with the setting off; 2: baseline B, which never looks (its paths aim at random).
+    const bool look = mode == 0;
     cycle::PipelineSettings<S> ps;
-    ps.look_at_unexplained = look;
+    ps.look_at_unexplained = mode != 1;
+    if (mode == 2) ps.strategy = cycle::Strategy::random_path;
     const auto cell = empty_bin_cell(sim::PartType::circle_nut, 23, ps);
     cell->scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(-0.06f, -0.02f));
     cell->scene.add_part(sim::PartType::pencil_coupler, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.12f, 0.05f));
@@ -650,7 +653,7 @@ TEST(Pipeline, LooksAtSurfaceNoObjectExplains) {
     ASSERT_FALSE(search.T_base_captures_planned.empty());
     const Eigen::Vector2f target = search.target.head<2>();
     if (!look) {
-      EXPECT_LT((target - centre).norm(), 0.001f) << "without look_at_unexplained: the bin centre's search";
+      EXPECT_LT((target - centre).norm(), 0.001f) << "mode " << mode << ": not the bin centre's search";
       continue;
     }
     EXPECT_LT(std::min((target - nut).norm(), (target - coupler).norm()), 0.02f)
@@ -897,6 +900,29 @@ TEST(Pipeline, DragsAPartAtWhichGripsKeepFailing) {
       else
         EXPECT_LT(d.x(), S(-0.03)) << "not dragged toward the bin centre";
     }
+}
+
+// Baseline B differs from ours only in where its sensing paths aim. After a drag, ours looks where
+// the drag ended; B aims at a random point of the bin (on this seed, more than 3 cm from it).
+TEST(Strategies, RandomPathAimsAtRandomAfterADrag) {
+  for (const auto strategy : {cycle::Strategy::ours, cycle::Strategy::random_path}) {
+    TestCell cell(0, strategy);
+    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.05f, S(0.105)));
+    cell.estimator.grasp_shift = S(0.005);  // every grip fails: the third cycle drags the nut off the wall
+    for (int k = 0; k < 3; ++k) {
+      const auto r = cell.pipeline->run_cycle();
+      ASSERT_TRUE(r.error.empty()) << r.error;
+      ASSERT_EQ(r.dragged, k == 2) << cycle::to_string(strategy) << ", cycle " << k;
+    }
+    const Eigen::Vector2f at = cell.scene.parts()[0].T_base_part.translation().head<2>();
+    const auto next = cell.pipeline->run_cycle();
+    ASSERT_TRUE(next.error.empty()) << next.error;
+    const float off = (next.target.head<2>() - at).norm();
+    if (strategy == cycle::Strategy::ours)
+      EXPECT_LT(off, 0.01f) << "ours does not look where the drag ended";
+    else
+      EXPECT_GT(off, 0.03f) << "B aims where the drag ended";
+  }
 }
 
 // The estimator recognizes nothing: the first cycle searches; the second drags the highest surface in

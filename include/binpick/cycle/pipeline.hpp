@@ -38,7 +38,8 @@
 /// path is turned about the vertical through B (`relook`): the same views would give the same wrong pose.
 ///
 /// Baselines (§IV.D): `single_view` (A) is ours with n = 1; `random_path` (B) aims each sensing path
-/// at a random point of the bin instead of Eq. 1; `stop_and_go` (C) is the conventional cell of Robot
+/// at a random point of the bin instead of Eq. 1 (also after a drag; it never looks at unexplained
+/// surface: its searches are the fixed turn of searches); `stop_and_go` (C) is the conventional cell of Robot
 /// Fusion [12]: drop first (B→C direct), then approach the bin and stop at each of n predefined views
 /// (exact poses), process serially while the robot waits, then grasp.
 ///
@@ -239,7 +240,7 @@ struct PipelineSettings {
   /// beside a wall mirrors the wall's inner face into views from the bin's middle. Measured on a lone
   /// LAN connector against a long wall (20 poses, 4 fused views at 1280 × 1024 from 0.3 m): recognized
   /// in 7 of 20 with the views over the bin's centre line, 19 with them over the point half-way to it,
-  /// 20 with them above it. Off: the bin centre and the turn of searches.
+  /// 20 with them above it. Off: the bin centre and the turn of searches. Always off for random_path.
   bool look_at_unexplained = true;
   Scalar look_radius = Scalar(0.02);         ///< [m] see look_at_unexplained
   Scalar look_min_area = Scalar(0.3e-4);     ///< [m²] see look_at_unexplained (0.3 cm²)
@@ -779,9 +780,7 @@ class PickingPipeline {
     T_B.translation().z() = std::max(A.z() + Scalar(0.02), s_.bin_center.z() + s_.bin_height + s_.lift_clearance);
     Vec3 target;
     if (s_.strategy == Strategy::random_path) {
-      // Baseline B: a random point of the bin floor area (not Eq. 1).
-      const Scalar u = Scalar(detail::uniform01(rng_) - 0.5), w = Scalar(detail::uniform01(rng_) - 0.5);
-      target = s_.bin_center + Vec3(u * s_.bin_length * Scalar(0.8), w * s_.bin_width * Scalar(0.8), Scalar(0.01));
+      target = random_target();
     } else {
       // Eq. 1; when no recognized object remains, where the fused depth shows something else.
       auto tc = active_vision::target_center<Scalar>(positions, confidences, default_target(), chosen);
@@ -794,6 +793,13 @@ class PickingPipeline {
     out.next = plan_with_fallbacks(target, A, T_B);
     out.plan_status = out.next.status;
     next_B_ = T_B;
+  }
+
+  /// Baseline B's aim for every sensing path it plans: a random point of the bin floor area (not Eq. 1,
+  /// nor where a drag ends).
+  Vec3 random_target() {
+    const Scalar u = Scalar(detail::uniform01(rng_) - 0.5), w = Scalar(detail::uniform01(rng_) - 0.5);
+    return s_.bin_center + Vec3(u * s_.bin_length * Scalar(0.8), w * s_.bin_width * Scalar(0.8), Scalar(0.01));
   }
 
   /// A drag of the first of the `candidates` with a direction to drag it in (drag_direction; with
@@ -875,7 +881,7 @@ class PickingPipeline {
 
   /// A drag starting on the surface at p (drag_press into the highest fused depth within drag_radius)
   /// and moving drag_distance along `away` (kept off the walls), and the next sensing path, aimed at
-  /// where the drag ends.
+  /// where the drag ends (random_path: at random).
   void set_drag(const Pose& T_base_ref, const DepthImageView<Scalar>& depth, const Vec3& p, const Vec3& away, Processed& out) {
     Pose T_from = Pose::Identity();
     T_from.linear() = Vec3(1, -1, -1).asDiagonal();  // the tool straight down
@@ -893,7 +899,8 @@ class PickingPipeline {
     out.T_base_drag_to = T_to;
     Pose T_B = T_to;
     T_B.translation().z() = s_.bin_center.z() + s_.bin_height + s_.lift_clearance;
-    out.next = plan_with_fallbacks(T_to.translation(), T_to.translation(), T_B);
+    out.next = plan_with_fallbacks(s_.strategy == Strategy::random_path ? random_target() : T_to.translation(),
+                                   T_to.translation(), T_B);
     out.plan_status = out.next.status;
     next_B_ = T_B;
   }
@@ -1408,6 +1415,9 @@ PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::PickingPipeline(Robot
   require_valid_pose(s.T_base_drop, "T_base_drop");
   sensing_scheme_time(1, s.interval, s.takt);  // validates the takt constants
   if (s.strategy == Strategy::single_view) s_.num_views = 1;
+  // B differs from ours only in where its sensing paths aim: looking at surface no object explains is
+  // an aim of active vision.
+  if (s.strategy == Strategy::random_path) s_.look_at_unexplained = false;
   n_ = s_.num_views;
   beta_ = beta_from_motion(n_);
   T_home_ = Pose::Identity();
