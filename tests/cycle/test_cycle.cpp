@@ -525,6 +525,10 @@ TEST(Pipeline, RejectsBadSettings) {
   expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
                           "drag_surface_height");
   ps = {};
+  ps.drag_tall_height = std::numeric_limits<S>::quiet_NaN();
+  expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
+                          "drag_tall_height");
+  ps = {};
   ps.look_radius = 0;
   const auto rejected = [&](const char* name) {
     expect_invalid_argument([&] { TestCell::Pipeline(cell.robot, cell.sensor, cell.estimator, cell.clock, *cell.gripper, ps); },
@@ -867,6 +871,42 @@ TEST(Pipeline, DragsABlockedPartAwayFromAnUnrecognizedPile) {
     }
 }
 
+// The simulated drag tips a part standing on end over (SimGripper::prepare_drag): a pencil coupler
+// on end lies after a drag in any of 8 directions, its axis along the drag. No part type lying in one
+// of its rest orientations turns.
+TEST(SimGripper, ADragTipsOverOnlyAPartStandingOnEnd) {
+  sim::SceneSettings<S> ss;
+  ss.num_parts = 0;
+  for (int type = 0; type < sim::kNumPartTypes; ++type) {
+    const auto t = sim::PartType(type);
+    const auto models = sim::Scene<S>::generate(ss, 1);
+    std::vector<Eigen::Matrix3f> poses = models.model(t).rest_orientations;
+    if (t == sim::PartType::pencil_coupler) poses.push_back(Eigen::Matrix3f::Identity());  // on end
+    for (std::size_t k = 0; k < poses.size(); ++k)
+      for (int d = 0; d < 8; ++d) {
+        auto scene = sim::Scene<S>::generate(ss, 1);
+        const int id = scene.add_part(t, poses[k], Eigen::Vector2f(0, 0));
+        const Eigen::Matrix3f R0 = scene.parts()[0].T_base_part.linear();
+        simcell::SimGripper<S> gripper(scene, t);
+        const Eigen::Vector3f dir(std::cos(d * S(M_PI / 4)), std::sin(d * S(M_PI / 4)), 0);
+        Eigen::Isometry3f from = Eigen::Isometry3f::Identity(), to = Eigen::Isometry3f::Identity();
+        from.translation() = Eigen::Vector3f(0, 0, 0.001f);
+        to.translation() = from.translation() + S(0.04) * dir;
+        ASSERT_TRUE(gripper.prepare_drag(from, to));
+        ASSERT_EQ(gripper.dragged(), 1);
+        const auto& moved = scene.parts()[0];
+        ASSERT_EQ(moved.id, id);
+        const Eigen::Vector3f axis0 = R0.col(2), axis = moved.T_base_part.linear().col(2);
+        if (k == models.model(t).rest_orientations.size()) {  // the coupler on end
+          EXPECT_LT(std::abs(axis.z()), 0.2f) << "direction " << d << ": still standing";
+          EXPECT_GT(std::abs(axis.dot(dir)), 0.9f) << "direction " << d << ": not lying along the drag";
+        } else {
+          EXPECT_GT(axis.dot(axis0), 0.99f) << sim::part_type_name(t) << " rest " << k << " direction " << d << ": turned";
+        }
+      }
+  }
+}
+
 // Grips that keep failing at one part (every grasp estimated 5 mm off): after drag_after_failures of
 // them the cycle drags the part instead of gripping it a third time: off the near wall, or, lying
 // alone away from the walls with nothing around it to drag it away from, toward the bin centre
@@ -901,6 +941,35 @@ TEST(Pipeline, DragsAPartAtWhichGripsKeepFailing) {
       else
         EXPECT_LT(d.x(), S(-0.03)) << "not dragged toward the bin centre";
     }
+}
+
+// A pencil coupler standing on end, alone: the reference estimator does not recognize it, and the top
+// of the sleeve (a 1.5 mm ring around its bore, 30 mm high) is all the depth shows of it. The search
+// cycles end in a drag of it, which tips it over (binpick_sim ours, 1280 x 1024, seed 5: two coupler
+// runs ended on a coupler on end, never dragged: the drag asked for half of the tool's footprint
+// measured, and the ring fills 10-20 of 49 cells; drag_tall_height lets it count with a quarter).
+TEST(Pipeline, DragsAPartStandingOnEndThatIsNeverRecognized) {
+  simcell::CellOptions o;
+  o.part = sim::PartType::pencil_coupler;
+  o.parts = 0;
+  o.seed = 29;
+  o.width = 1280;  // at 640 x 512 the ring's cells are fewer and coarser: it was dragged either way
+  o.height = 1024;
+  cycle::PipelineSettings<S> ps;
+  ps.seed = o.seed;
+  ps.fixed_compute_time = 0.040;
+  const auto cell = std::make_unique<simcell::Cell>(o, ps);
+  cell->scene.add_part(sim::PartType::pencil_coupler, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.02f, 0.01f));
+  bool dragged = false;
+  for (int k = 0; k < 4 && !dragged; ++k) {
+    const auto r = cell->pipeline->run_cycle();
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    ASSERT_NE(r.status, cycle::CycleStatus::picked) << "the coupler on end was recognized and picked";
+    dragged = r.dragged;
+  }
+  ASSERT_TRUE(dragged) << "the coupler on end was never dragged";
+  ASSERT_EQ(cell->remaining(), 1);
+  EXPECT_LT(std::abs(cell->scene.parts()[0].T_base_part.linear()(2, 2)), 0.2f) << "the dragged coupler still stands";
 }
 
 // Baseline B differs from ours only in where its sensing paths aim. After a drag, ours looks where

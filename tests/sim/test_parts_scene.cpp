@@ -389,4 +389,17 @@ TEST(Scene, MovingAPartKeepsItsIdAndThePileValid) {
   expect_valid_pile(scene, true);
   EXPECT_FALSE(scene.move_part(12345, delta));
   EXPECT_THROW(scene.move_part(id, Vector2<double>(std::nan(""), 0)), std::invalid_argument);
+  try {
+    scene.move_part(id, delta, 2 * Eigen::Matrix3d::Identity());
+    ADD_FAILURE() << "a turn that is not a rotation was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("turn"), std::string::npos) << e.what();
+  }
+  // Turned on the way: the part lands with the turn applied (a quarter turn about the vertical keeps
+  // it at rest).
+  const Eigen::Matrix3d R1 = scene.parts().back().T_base_part.linear();
+  const Eigen::Matrix3d quarter = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  ASSERT_TRUE(scene.move_part(id, -delta, quarter));
+  EXPECT_GT((scene.parts().back().T_base_part.linear().col(0)).dot(quarter * R1.col(0)), 0.99);
+  expect_valid_pile(scene, true);
 }

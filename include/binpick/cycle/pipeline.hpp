@@ -224,6 +224,10 @@ struct PipelineSettings {
   /// on: above the fused depth's error on the floor (at 640 × 512 on the simulated metal sensor, a
   /// patch of floor beside a LAN connector measured 2.8 mm high over the tool's whole footprint).
   Scalar drag_surface_height = Scalar(0.004);
+  /// [m] A surface at least this high above the floor is dragged (drag_unrecognized_after) with a
+  /// quarter of the tool's footprint measured instead of half: a part standing on end shows only its
+  /// top, a thin ring or edge with holes around it (a pencil coupler on end: 31 mm).
+  Scalar drag_tall_height = Scalar(0.02);
   Scalar drag_distance = Scalar(0.04);       ///< [m]
   Scalar drag_press = Scalar(0.002);         ///< [m]
   Scalar drag_radius = Scalar(0.005);        ///< [m] the closed tool's footprint
@@ -854,7 +858,10 @@ class PickingPipeline {
       }
     // Each grid point counts with the median height measured within the tool's radius (±3 cells):
     // the tool needs surface to press on, and a spike of noise on the floor does not make one. Shiny
-    // metal leaves holes in the depth: half of the 49 cells measured is enough.
+    // metal leaves holes in the depth: half of the 49 cells measured is enough, and a quarter for a
+    // surface drag_tall_height above the floor (the ring on top of a pencil coupler standing on end,
+    // 31 mm high, fills 10-20 of them around its bore: it was never dragged; a quarter everywhere
+    // dragged low surfaces that cost a mirror-nut run 3 parts).
     Scalar best = s_.drag_surface_height;
     std::size_t at = height.size();
     Scalar window[49];
@@ -867,8 +874,9 @@ class PickingPipeline {
             const Scalar z = height[std::size_t(j + dj) * std::size_t(w) + std::size_t(i + di)];
             if (z > -std::numeric_limits<Scalar>::infinity()) window[measured++] = z;  // else a hole
           }
-        if (measured < 25) continue;
+        if (measured < 13) continue;
         std::nth_element(window, window + measured / 2, window + measured);
+        if (measured < 25 && !(window[measured / 2] >= s_.drag_tall_height)) continue;
         if (window[measured / 2] > best) {
           best = window[measured / 2];
           at = std::size_t(j) * std::size_t(w) + std::size_t(i);
@@ -1399,6 +1407,7 @@ PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::PickingPipeline(Robot
   require(s.drag_after_failures >= 0, "drag_after_failures", "must be >= 0");
   require(s.drag_unrecognized_after >= 0, "drag_unrecognized_after", "must be >= 0");
   require(std::isfinite(s.drag_surface_height), "drag_surface_height", "must be finite");
+  require(std::isfinite(s.drag_tall_height), "drag_tall_height", "must be finite");
   require(std::isfinite(s.look_radius) && s.look_radius >= Scalar(0.001), "look_radius",
           "must be finite and >= 0.001 m (the grid of look_radius cells covers the bin)");
   require(std::isfinite(s.look_min_area) && s.look_min_area >= 0, "look_min_area", "must be finite and >= 0");

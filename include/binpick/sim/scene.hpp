@@ -139,16 +139,20 @@ class Scene {
     return true;
   }
 
-  /// Moves the part with `id` by `delta` (x, y) [m] at its orientation, as a drag over the floor
-  /// would: it is taken out (the parts on it settle), then dropped again at the new place (clamped
-  /// into the bin) onto whatever lies there and settles. It keeps its id. Returns false when no part
-  /// has that id. Throws std::invalid_argument naming `delta` when it is not finite.
-  bool move_part(int id, const Vector2<Scalar>& delta) {
+  /// Moves the part with `id` by `delta` (x, y) [m] as a drag over the floor would: it is taken out
+  /// (the parts on it settle), turned by `turn` (a rotation in the base frame; a part that tips over
+  /// on the way), then dropped again at the new place (clamped into the bin) onto whatever lies there
+  /// and settles. It keeps its id. Returns false when no part has that id. Throws
+  /// std::invalid_argument naming `delta` when it is not finite, `turn` when it is not a rotation.
+  bool move_part(int id, const Vector2<Scalar>& delta, const Mat3& turn = Mat3::Identity()) {
     require_all_finite(delta, "delta");
+    require(turn.allFinite() && (turn.transpose() * turn - Mat3::Identity()).norm() < Scalar(1e-4) && turn.determinant() > 0,
+            "turn", "must be a rotation");
     const std::size_t k = index_of(id);
     if (k == parts_.size()) return false;
     PlacedPart<Scalar> p = parts_[k];
     remove_part(id);
+    p.T_base_part.linear() = turn * p.T_base_part.linear();
     p.T_base_part.translation().template head<2>() += delta;
     place(p, parts_.size());
     parts_.push_back(p);
