@@ -146,8 +146,9 @@ class Scene {
   /// std::invalid_argument naming `delta` when it is not finite, `turn` when it is not a rotation.
   bool move_part(int id, const Vector2<Scalar>& delta, const Mat3& turn = Mat3::Identity()) {
     require_all_finite(delta, "delta");
-    require(turn.allFinite() && (turn.transpose() * turn - Mat3::Identity()).norm() < Scalar(1e-4) && turn.determinant() > 0,
-            "turn", "must be a rotation");
+    Isometry3<Scalar> T_turn = Isometry3<Scalar>::Identity();
+    T_turn.linear() = turn;
+    require_valid_pose(T_turn, "turn");
     const std::size_t k = index_of(id);
     if (k == parts_.size()) return false;
     PlacedPart<Scalar> p = parts_[k];
