@@ -17,8 +17,8 @@ using binpick::test::uniform;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180;
+using binpick::test::kDeg;
+using binpick::test::kPi;
 
 template <typename Scalar>
 constexpr bool is_float() {

@@ -15,7 +15,7 @@ using binpick::test::uniform;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using binpick::test::kPi;
 
 // Length tolerance per scalar for configurations of about a metre [m].
 template <typename Scalar>

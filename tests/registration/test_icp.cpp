@@ -19,7 +19,7 @@ using namespace binpick::test;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180;
+using binpick::test::kDeg;
 
 enum class Assoc { knn, projective };
 

@@ -20,7 +20,7 @@ using namespace binpick::test;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180;
+using binpick::test::kDeg;
 
 // The x y z columns of an ASCII PCD (the only kind the bunny files are).
 std::vector<Eigen::Vector3f> read_ascii_pcd_xyz(const std::string& path) {

@@ -10,6 +10,10 @@
 
 namespace binpick::test {
 
+// One definition for every test file: a module's files compile as one unit (BINPICK_UNITY_TESTS).
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180;
+
 /// A 3-vector of three calls of `draw` (a seeded generator), made in one fixed order on every
 /// compiler: z, then y, then x. `Vector3(draw(), draw(), draw())` leaves the order unspecified (GCC
 /// evaluates the arguments right to left, Clang left to right, so a seeded test saw other numbers
