@@ -590,8 +590,8 @@ TEST(Strategies, OursBeatsSingleView) {
 // 0.936). With the sensor's vignetting (--vignetting 2, the field's edges darker) ours has 0.980 and
 // B 0.948; at 1280x1024 (seed 3, 5 runs of 20 parts per type) both picked 0.994, and these piles gave
 // ours 12, B 9. Without vignetting at 1280x1024, seeds 3-5, with B aiming at random after drags too:
-// ours 1488, B 1487 of 1500. Two favourable piles do not show what the whole test does not. Kept,
-// disabled, until the sensing path earns it (issue 7).
+// ours 1491 (1488 before parts standing on end were dragged), B 1487 of 1500. Two favourable piles
+// do not show what the whole test does not. Kept, disabled, until the sensing path earns it (issue 7).
 TEST(Strategies, DISABLED_OursBeatsRandomPath) {
   const int ours = strategy_picks(cycle::Strategy::ours), b = strategy_picks(cycle::Strategy::random_path);
   std::printf("picked of 12: ours %d, B %d\n", ours, b);
