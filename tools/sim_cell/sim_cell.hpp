@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
-#include <limits>
 #include <memory>
 #include <numeric>
 #include <sstream>
@@ -158,13 +157,9 @@ class SimGripper {
     const auto& parts = scene_->parts();
     const auto it = std::find_if(parts.begin(), parts.end(), [&](const auto& p) { return p.id == id; });
     if (it == parts.end()) return Matrix3<Scalar>::Identity();
-    Scalar z0 = std::numeric_limits<Scalar>::infinity(), z1 = -z0, a0 = z0, a1 = -z0;
-    for (const auto& s : scene_->world_spheres(*it)) {
-      z0 = std::min(z0, s.centre.z() - s.radius);
-      z1 = std::max(z1, s.centre.z() + s.radius);
-      a0 = std::min(a0, Scalar(u.dot(s.centre)) - s.radius);
-      a1 = std::max(a1, Scalar(u.dot(s.centre)) + s.radius);
-    }
+    const auto spheres = scene_->world_spheres(*it);
+    const auto [z0, z1] = sim::extent_along(spheres, Vector3<Scalar>(Vector3<Scalar>::UnitZ()));
+    const auto [a0, a1] = sim::extent_along(spheres, u);
     if (!(z1 - z0 > Scalar(1.5) * (a1 - a0))) return Matrix3<Scalar>::Identity();
     return Eigen::AngleAxis<Scalar>(Scalar(M_PI / 2), Vector3<Scalar>::UnitZ().cross(u)).toRotationMatrix();
   }

@@ -874,9 +874,9 @@ class PickingPipeline {
             const Scalar z = height[std::size_t(j + dj) * std::size_t(w) + std::size_t(i + di)];
             if (z > -std::numeric_limits<Scalar>::infinity()) window[measured++] = z;  // else a hole
           }
-        if (measured < 13) continue;
+        if (4 * measured < 49) continue;  // under a quarter
         std::nth_element(window, window + measured / 2, window + measured);
-        if (measured < 25 && !(window[measured / 2] >= s_.drag_tall_height)) continue;
+        if (2 * measured < 49 && !(window[measured / 2] >= s_.drag_tall_height)) continue;  // under half, low
         if (window[measured / 2] > best) {
           best = window[measured / 2];
           at = std::size_t(j) * std::size_t(w) + std::size_t(i);

@@ -9,8 +9,11 @@
 /// Grasp frames (T_part_grasp): z = approach direction (the gripper moves along +z into the part),
 /// x = finger closing direction (two-finger) — origin at the grasp point.
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "binpick/core/errors.hpp"
@@ -39,6 +42,19 @@ struct CollisionSphere {
   Vector3<Scalar> centre = Vector3<Scalar>::Zero();  ///< in the part frame [m]
   Scalar radius = 0;                                  ///< [m]
 };
+
+/// The interval {lo, hi} that `spheres` cover along `dir` (a unit vector in their frame); {+inf, -inf}
+/// for none.
+template <typename Scalar>
+std::pair<Scalar, Scalar> extent_along(const std::vector<CollisionSphere<Scalar>>& spheres, const Vector3<Scalar>& dir) {
+  Scalar lo = std::numeric_limits<Scalar>::infinity(), hi = -lo;
+  for (const auto& s : spheres) {
+    const Scalar c = dir.dot(s.centre);
+    lo = std::min(lo, c - s.radius);
+    hi = std::max(hi, c + s.radius);
+  }
+  return {lo, hi};
+}
 
 template <typename Scalar>
 struct GraspPose {

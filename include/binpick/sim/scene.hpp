@@ -224,17 +224,10 @@ class Scene {
 
   /// Clamps (x, y) so every sphere of the part at orientation R stays inside the walls.
   Vector2<Scalar> clamp_xy(const PartModel<Scalar>& m, const Mat3& R, Vector2<Scalar> xy) const {
-    Scalar lo[2] = {Scalar(1e9), Scalar(1e9)}, hi[2] = {Scalar(-1e9), Scalar(-1e9)};
-    for (const auto& s : m.spheres) {
-      const Vec3 c = R * s.centre;
-      for (int a = 0; a < 2; ++a) {
-        lo[a] = std::min(lo[a], c[a] - s.radius);
-        hi[a] = std::max(hi[a], c[a] + s.radius);
-      }
-    }
     const Scalar half[2] = {bin_.length / 2, bin_.width / 2};
     for (int a = 0; a < 2; ++a) {
-      const Scalar mn = -half[a] - lo[a], mx = half[a] - hi[a];
+      const auto [lo, hi] = extent_along(m.spheres, Vec3(R.row(a).transpose()));  // (R * centre)[a]
+      const Scalar mn = -half[a] - lo, mx = half[a] - hi;
       xy[a] = mn <= mx ? std::clamp(xy[a], mn, mx) : (mn + mx) / 2;
     }
     return xy;
