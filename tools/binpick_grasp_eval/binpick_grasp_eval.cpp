@@ -72,24 +72,23 @@ Isometry3<S> look_at(const Vector3<S>& eye, const Vector3<S>& target) {
 }
 
 // The nearest true part (by origin) to a recognized object whose grasp matched no true grasp, scored
-// as the estimator scores its own fits (see the file comment).
+// as the estimator scored its fit (the object's confidence is that score; see the file comment).
 void score_truth(const sim::ReferenceEstimator<S, Camera>& est, const cycle::EstimatorInput<S, Camera>& in,
                  const sim::Scene<S>& scene, const Isometry3<S>& T_base_reference, const cycle::RecognizedObject<S>& obj,
                  TypeResult& out) {
-  const Isometry3<S> T_reference_base = T_base_reference.inverse(Eigen::Isometry);
+  const Vector3<S> at = T_base_reference * obj.T_camera_object.translation();
   const sim::PlacedPart<S>* nearest = nullptr;
   S best = std::numeric_limits<S>::infinity();
   for (const auto& p : scene.parts()) {
-    const S d = (T_reference_base * p.T_base_part.translation() - obj.T_camera_object.translation()).norm();
+    const S d = (p.T_base_part.translation() - at).norm();
     if (d < best) best = d, nearest = &p;
   }
   if (!nearest || !(best <= scene.model(nearest->type).bounding_radius)) {
     ++out.no_part_near;
     return;
   }
-  const S truth = est.score_pose(in, 0, Isometry3<S>(T_reference_base * nearest->T_base_part));
-  const S reported = est.score_pose(in, 0, obj.T_camera_object);
-  ++(truth > reported ? out.truth_scores_higher : out.truth_scores_lower);
+  const S truth = est.score_pose(in, 0, Isometry3<S>(T_base_reference.inverse(Eigen::Isometry) * nearest->T_base_part));
+  ++(truth > obj.confidence_percent ? out.truth_scores_higher : out.truth_scores_lower);
 }
 
 TypeResult evaluate(sim::PartType type, const Options& o) {

@@ -862,21 +862,22 @@ class PickingPipeline {
     // surface drag_tall_height above the floor (the ring on top of a pencil coupler standing on end,
     // 31 mm high, fills 10-20 of them around its bore: it was never dragged; a quarter everywhere
     // dragged low surfaces that cost a mirror-nut run 3 parts).
+    constexpr int r = 3, cells = (2 * r + 1) * (2 * r + 1);
     Scalar best = s_.drag_surface_height;
     std::size_t at = height.size();
-    Scalar window[49];
-    for (int j = 3; j + 3 < h; ++j)
-      for (int i = 3; i + 3 < w; ++i) {
+    Scalar window[cells];
+    for (int j = r; j + r < h; ++j)
+      for (int i = r; i + r < w; ++i) {
         if (!(height[std::size_t(j) * std::size_t(w) + std::size_t(i)] > best)) continue;
         int measured = 0;
-        for (int dj = -3; dj <= 3; ++dj)
-          for (int di = -3; di <= 3; ++di) {
+        for (int dj = -r; dj <= r; ++dj)
+          for (int di = -r; di <= r; ++di) {
             const Scalar z = height[std::size_t(j + dj) * std::size_t(w) + std::size_t(i + di)];
             if (z > -std::numeric_limits<Scalar>::infinity()) window[measured++] = z;  // else a hole
           }
-        if (4 * measured < 49) continue;  // under a quarter
+        if (4 * measured < cells) continue;  // under a quarter
         std::nth_element(window, window + measured / 2, window + measured);
-        if (2 * measured < 49 && !(window[measured / 2] >= s_.drag_tall_height)) continue;  // under half, low
+        if (2 * measured < cells && !(window[measured / 2] >= s_.drag_tall_height)) continue;  // under half, low
         if (window[measured / 2] > best) {
           best = window[measured / 2];
           at = std::size_t(j) * std::size_t(w) + std::size_t(i);
