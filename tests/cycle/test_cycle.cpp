@@ -546,12 +546,15 @@ TEST(Pipeline, RejectsBadSettings) {
 // ---------------------------------------------------------------------------------------------------
 // The strategies with the reference estimator on a fixed seed.
 
-// Pencil couplers, two piles of 6 parts (binpick_sim --types pencil_coupler --parts 6 --seed 11
-// --compute-time 60, runs 3 and 4), each strategy on the same piles. With a fixed compute time on the
-// simulated clock the runs are the same on any machine.
+// Pencil couplers, five piles of 6 parts (binpick_sim --types pencil_coupler --parts 6 --seed 11
+// --compute-time 60, runs 0-4; 3 in the seed is the type's index), each strategy on the same piles,
+// at most 10 cycles a pile and 3 failed ones in a row. With a fixed compute time on the simulated
+// clock the runs are the same on any machine. Two piles were too few: when the scene's settling
+// changed (parts no longer balance on an edge) their outcome turned from ours 12, A 9 to ours 8, A 11
+// of 12, one pile losing 4 parts to a coupler the fit kept sliding along its axis.
 static int strategy_picks(cycle::Strategy s) {
   int picked_total = 0;
-  for (const std::uint64_t pile : {0ULL, 1ULL}) {
+  for (std::uint64_t pile = 0; pile < 5; ++pile) {
     simcell::CellOptions o;
     o.part = sim::PartType::pencil_coupler;
     o.parts = 6;
@@ -573,29 +576,31 @@ static int strategy_picks(cycle::Strategy s) {
   return picked_total;
 }
 
-// Multi-view sensing picks more than one view (paper Fig. 11); measured: ours 12, A 9 of 12. A single
-// view leaves more parts unrecognized, and looking at their surface (look_at_unexplained) finds some
-// of them again: without it A picked 4 (earlier code: ours 11, A 0).
+// Multi-view sensing picks more than one view (paper Fig. 11); measured: ours 26, A 22 of 30 (per
+// pile 6 2 6 6 6 and 6 5 4 6 1). A single view leaves more parts unrecognized, and looking at their
+// surface (look_at_unexplained) finds some of them again (earlier code, piles 0 and 1: without it A
+// picked 4 of 12).
 TEST(Strategies, OursBeatsSingleView) {
   const int ours = strategy_picks(cycle::Strategy::ours), a = strategy_picks(cycle::Strategy::single_view);
-  std::printf("picked of 12: ours %d, A %d\n", ours, a);
-  EXPECT_GT(ours, a) << "ours " << ours << ", A " << a << " of 12";
+  std::printf("picked of 30: ours %d, A %d\n", ours, a);
+  EXPECT_GT(ours, a) << "ours " << ours << ", A " << a << " of 30";
 }
 
 // Active vision should pick more than a random sensing path (B, paper Table III). It does not in this
-// simulated cell's default sensor, which measures a part as well anywhere in its field. On these two
-// piles ours picks 12 and B 8 of 12 (it was 11 and 11), but over the picking test (binpick_sim --runs
+// simulated cell's default sensor, which measures a part as well anywhere in its field. On these five
+// piles ours picks 26 and B 30 of 30 (piles 0 and 1 before the scene's settling change: 12 and 8 of
+// 12; earlier 11 and 11). Over the picking test (binpick_sim --runs
 // 10 --parts 10 --compute-time 40 --seed 2, all 5 types, 640x512) ours has 0.958 mean complete rate
 // and B 0.984 (before the estimator's floor check 0.982 each; earlier code 0.966 / 0.982 and 0.906 /
 // 0.936). With the sensor's vignetting (--vignetting 2, the field's edges darker) ours has 0.980 and
-// B 0.948; at 1280x1024 (seed 3, 5 runs of 20 parts per type) both picked 0.994, and these piles gave
-// ours 12, B 9. Without vignetting at 1280x1024, seeds 3-5, with B aiming at random after drags too:
+// B 0.948; at 1280x1024 (seed 3, 5 runs of 20 parts per type) both picked 0.994, and piles 0 and 1
+// gave ours 12, B 9. Without vignetting at 1280x1024, seeds 3-5, with B aiming at random after drags too:
 // ours 1491 (1488 before parts standing on end were dragged), B 1487 of 1500. Two favourable piles
 // do not show what the whole test does not. Kept, disabled, until the sensing path earns it (issue 7).
 TEST(Strategies, DISABLED_OursBeatsRandomPath) {
   const int ours = strategy_picks(cycle::Strategy::ours), b = strategy_picks(cycle::Strategy::random_path);
-  std::printf("picked of 12: ours %d, B %d\n", ours, b);
-  EXPECT_GT(ours, b) << "ours " << ours << ", B " << b << " of 12";
+  std::printf("picked of 30: ours %d, B %d\n", ours, b);
+  EXPECT_GT(ours, b) << "ours " << ours << ", B " << b << " of 30";
 }
 
 // A cell of `part` with an empty bin on `seed`, its compute time fixed on the simulated clock (the

@@ -170,41 +170,48 @@ struct CouplerAtWall {
 
 }  // namespace
 
-// Clean depth: the top parts are found within 2 mm / 2°, and every confident object is right.
+// Clean depth: the top parts are found within 2 mm / 2°, and every confident object is right. Counted
+// over two piles: one pile's dozen top parts make a share that moves by 10 points when a pile changes.
+// The screw's share is lower (the file comment of reference_estimator.hpp: its turn about the line of
+// sight); over piles 7-14 the shares were: couplers 96 of 106, circle nuts 92 of 104, screws 52 of 76.
 TEST(ReferenceEstimator, CleanDepthFindsTopPartsAccurately) {
   const StereoSensor<float> sensor(sensor_settings(false));
   for (const PartType type : {PartType::pencil_coupler, PartType::circle_nut, PartType::small_screw}) {
-    const Scene<float> scene = pile(type, 20, 7);
-    const auto frame = sensor.render(scene, kReference, 0);
-    Estimator est(scene.model(type), settings_for(sensor.camera()));
-    const auto in = input_of(frame.depth, sensor.camera());
-    const auto r = est.estimate_detailed(in);
-    ASSERT_EQ(r.result.status, cycle::EstimationStatus::ok) << part_type_name(type);
-    const std::vector<int> top = top_parts(est, scene, in);
-    ASSERT_GE(top.size(), 4u) << part_type_name(type);
-    int found = 0;
-    for (const int t : top)
+    const double least_share = type == PartType::small_screw ? 0.6 : 0.8;
+    int found = 0, top_total = 0;
+    for (const std::uint64_t seed : {7ULL, 8ULL}) {
+      const Scene<float> scene = pile(type, 20, seed);
+      const auto frame = sensor.render(scene, kReference, 0);
+      Estimator est(scene.model(type), settings_for(sensor.camera()));
+      const auto in = input_of(frame.depth, sensor.camera());
+      const auto r = est.estimate_detailed(in);
+      ASSERT_EQ(r.result.status, cycle::EstimationStatus::ok) << part_type_name(type);
+      const std::vector<int> top = top_parts(est, scene, in);
+      ASSERT_GE(top.size(), 4u) << part_type_name(type);
+      top_total += int(top.size());
+      for (const int t : top)
+        for (const auto& o : r.result.objects) {
+          const Match m = match(scene, kReference, o);
+          if (m.truth == t && correct(m, 2, 2)) {
+            ++found;
+            break;
+          }
+        }
       for (const auto& o : r.result.objects) {
-        const Match m = match(scene, kReference, o);
-        if (m.truth == t && correct(m, 2, 2)) {
-          ++found;
-          break;
+        EXPECT_EQ(o.part_type, int(type));
+        EXPECT_TRUE(o.T_camera_object.matrix().allFinite());
+        EXPECT_TRUE(o.T_camera_grasp.matrix().allFinite());
+        EXPECT_GE(o.confidence_percent, est.settings().min_confidence);
+        EXPECT_LE(o.confidence_percent, 100.f);
+        if (o.confidence_percent >= 85.f) {
+          EXPECT_TRUE(correct(match(scene, kReference, o), 2, 2)) << part_type_name(type);
         }
       }
-    std::printf("%s: %d of %zu\n", part_type_name(type), found, top.size());
-    EXPECT_GE(double(found), 0.7 * double(top.size())) << part_type_name(type) << ": " << found << " of " << top.size();
-    for (const auto& o : r.result.objects) {
-      EXPECT_EQ(o.part_type, int(type));
-      EXPECT_TRUE(o.T_camera_object.matrix().allFinite());
-      EXPECT_TRUE(o.T_camera_grasp.matrix().allFinite());
-      EXPECT_GE(o.confidence_percent, est.settings().min_confidence);
-      EXPECT_LE(o.confidence_percent, 100.f);
-      if (o.confidence_percent >= 85.f) {
-        EXPECT_TRUE(correct(match(scene, kReference, o), 2, 2)) << part_type_name(type);
-      }
+      for (std::size_t i = 1; i < r.result.objects.size(); ++i)
+        EXPECT_GE(r.result.objects[i - 1].confidence_percent, r.result.objects[i].confidence_percent);
     }
-    for (std::size_t i = 1; i < r.result.objects.size(); ++i)
-      EXPECT_GE(r.result.objects[i - 1].confidence_percent, r.result.objects[i].confidence_percent);
+    std::printf("%s: %d of %d\n", part_type_name(type), found, top_total);
+    EXPECT_GE(double(found), least_share * double(top_total)) << part_type_name(type) << ": " << found << " of " << top_total;
   }
 }
 

@@ -338,6 +338,27 @@ TEST(Scene, RemovingAPartLetsThoseOnItSettle) {
   expect_valid_pile(scene, true);
 }
 
+// A part on an edge tips over it once its centre passes over the edge, and stands back up before:
+// a connector (21 mm long, 11.7 thick) on end, tilted about its width (the edge along y) by 35°, past
+// its tipping angle (about 29° for the sharp box, less on the spheres' rounded edge), ends lying on a
+// face; tilted by 20° it stands upright. With tilts about the base axes alone, at yaw 0.5 and 2.0 it
+// stayed on end at 35° (and at 20°), as the last connector of a picking run stood 30° tilted through
+// four failed grips.
+TEST(Scene, APartOnAnEdgeTipsOverPastItsTippingAngle) {
+  const Eigen::Matrix3d on_end = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitY()).toRotationMatrix();  // x down
+  for (double yaw : {0.0, 0.5, 1.2, 2.0}) {
+    const Eigen::Matrix3d Rz = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    auto settle = [&](double tilt) {
+      Scene<double> scene;
+      const Eigen::Matrix3d R = Rz * Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitY()).toRotationMatrix() * on_end;
+      scene.add_part(PartType::lan_connector, R, Vector2<double>(0.03, -0.02));
+      return std::abs(scene.parts()[0].T_base_part(2, 0));  // |vertical part of the long axis|
+    };
+    EXPECT_LT(settle(35 * M_PI / 180), std::sin(5 * M_PI / 180)) << "yaw " << yaw << ": past the tipping angle, still on end";
+    EXPECT_GT(settle(20 * M_PI / 180), std::cos(5 * M_PI / 180)) << "yaw " << yaw << ": before the tipping angle, not upright";
+  }
+}
+
 // A part left alone rests as it would if dropped alone at the same place and orientation: a part that
 // leaned on a removed neighbour with one end on the floor keeps its height, and had to be settled
 // again by the removal (before, 20 of 350 such parts, all types, stood leaning on nothing).

@@ -7,7 +7,8 @@
 ///     is the largest of the per-sphere contact heights, so the result never interpenetrates;
 ///  2. settle: the part is tilted about horizontal axes through its centre in steps that halve, a
 ///     tilt being kept when the dropped centre ends lower (a descent on the height of the centre of
-///     mass), so parts lie flat on the floor or lean on each other instead of balancing on a point.
+///     mass), so parts lie flat on the floor or lean on each other instead of balancing on a point or
+///     an edge.
 /// Removing a part re-drops, in placement order, every part placed after it (a part only ever rests
 /// on parts placed before it), so the parts that rested on it settle.
 ///
@@ -285,7 +286,11 @@ class Scene {
     settle(p, index);
   }
 
-  /// Descent on the centre height over tilts about the base x and y axes (see file comment).
+  /// Descent on the centre height over tilts about horizontal axes (see file comment): the base x and
+  /// y axes, and the horizontal parts of the part's own axes and their horizontal normals. A part on
+  /// an edge or a rim can only tip about that edge (or the rim's tangent), which runs along a part
+  /// axis or across one; a tilt about any other axis lifts it onto a corner, so with the base axes
+  /// alone the descent stopped with the part balancing on the edge.
   void settle(PlacedPart<Scalar>& p, std::size_t index) const {
     const PartModel<Scalar>& m = model(p.type);
     Scalar step = Scalar(0.25);
@@ -296,8 +301,16 @@ class Scene {
       Scalar best_z = z - Scalar(1e-6);
       Mat3 best_R = R;
       Vector2<Scalar> best_xy = xy;
-      for (int c = 0; c < 4; ++c) {
-        const Vec3 axis = c < 2 ? Vec3::UnitX() : Vec3::UnitY();
+      std::array<Vec3, 8> axes{Vec3::UnitX(), Vec3::UnitY()};
+      int num_axes = 2;
+      for (int a = 0; a < 3; ++a) {
+        const Vec3 h(R(0, a), R(1, a), 0);
+        if (!(h.norm() > Scalar(0.1))) continue;  // (nearly) vertical: its horizontal part is noise
+        axes[std::size_t(num_axes++)] = h.normalized();
+        axes[std::size_t(num_axes++)] = Vec3(-h.y(), h.x(), 0).normalized();
+      }
+      for (int c = 0; c < 2 * num_axes; ++c) {
+        const Vec3& axis = axes[std::size_t(c / 2)];
         const Mat3 Rc = (Eigen::AngleAxis<Scalar>(c % 2 ? -step : step, axis).toRotationMatrix() * R);
         const Vector2<Scalar> xyc = clamp_xy(m, Rc, xy);
         const Scalar zc = drop(p.type, Rc, xyc, index);
