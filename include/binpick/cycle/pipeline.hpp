@@ -173,8 +173,16 @@ struct PipelineSettings {
   ToolBox<Scalar> cup_tool = cup_tool_box(Scalar(0.005), Scalar(0.040));
   Scalar tool_margin = Scalar(0);  ///< [m] see jaw_tool
   /// After a failed grip, objects whose grasp point lies within this of it are chosen only when no other
-  /// is left, until a grip succeeds: the same fused depth gives the same wrong pose again [m].
+  /// is left, until a grip succeeds near it (forget_distance): the same fused depth gives the same
+  /// wrong pose again [m].
   Scalar retry_distance = Scalar(0.01);
+  /// [m] A grip that holds forgets the failed grips within this of its grasp point (taking the part
+  /// may free or move its neighbours); those farther away stay remembered (retry_distance,
+  /// drag_after_failures). Infinity: a success forgets every failure. With that (the earlier rule),
+  /// binpick_sim (ours, 1280 x 1024, seed 4) ended a LAN-connector run with 5 parts left: a
+  /// connector lying 52° tilted on two others was gripped 4 times (its jaws hit them), the failures
+  /// forgotten each time a part 5-6 cm away was picked, so it was never dragged.
+  Scalar forget_distance = Scalar(0.03);
   /// [%] Objects the estimator reports with less confidence are grasped only when no other object
   /// offers a grasp: a last try before the search move. Parts the sensor sees poorly from every side
   /// (a mirror-polished nut lying flat shows only its rims) keep a weak fit, and looking again rarely
@@ -207,8 +215,8 @@ struct PipelineSettings {
   /// recognized (binpick_sim ours, 1280 × 1024, seed 4: a LAN connector run ended with one connector
   /// leaning 31° on an unrecognized one, blocked in 5 cycles in a row).
   bool drag_apart = true;
-  /// An object at which this many grips failed since the last success (failures within
-  /// `retry_distance` of its grasp point) is dragged (off a wall, or as drag_apart, else toward the
+  /// An object at which this many remembered grips failed (failures within `retry_distance` of its
+  /// grasp point, not forgotten by a success: forget_distance) is dragged (off a wall, or as drag_apart, else toward the
   /// bin centre) instead of gripped again, when no other object offers a grasp. The cell does not know
   /// why a grip failed: a neighbour the fused depth hides, or a pose the views keep getting wrong; both
   /// change when the part moves. 0: never.
@@ -1157,13 +1165,18 @@ class PickingPipeline {
     searches_in_row_ = 0;
     drags_in_row_ = 0;
     holding_ = held;
-    if (held)
-      failed_grasps_.clear();
-    else
-      failed_grasps_.push_back(p.T_base_grasp.translation());
-    next_ = held || !s_.relook || s_.strategy == Strategy::random_path
-                ? p.next
-                : relook(p.next, p.T_base_grasp.translation(), failed_grasps_.size());
+    const Vec3 at = p.T_base_grasp.translation();
+    if (held) {
+      failed_grasps_.erase(std::remove_if(failed_grasps_.begin(), failed_grasps_.end(),
+                                          [&](const Vec3& f) { return !((f - at).norm() > s_.forget_distance); }),
+                           failed_grasps_.end());
+      failures_in_row_ = 0;
+    } else {
+      if (failed_grasps_.size() == kMaxRememberedFailures) failed_grasps_.erase(failed_grasps_.begin());
+      failed_grasps_.push_back(at);
+      ++failures_in_row_;
+    }
+    next_ = held || !s_.relook || s_.strategy == Strategy::random_path ? p.next : relook(p.next, at, failures_in_row_);
     r.status = held ? CycleStatus::picked : CycleStatus::grasp_failed;
   }
 
@@ -1367,7 +1380,11 @@ class PickingPipeline {
   Pose approach_from_ = Pose::Identity();
   double approach_time_ = 0;
   Plan predefined_, next_;
-  std::vector<Vec3> failed_grasps_;  // grasp points of the grips that failed since the last success
+  // Grasp points of the failed grips not forgotten by a success near them (forget_distance), the
+  // oldest dropped beyond kMaxRememberedFailures; and the failed grips since the last success (relook).
+  static constexpr std::size_t kMaxRememberedFailures = 32;
+  std::vector<Vec3> failed_grasps_;
+  std::size_t failures_in_row_ = 0;
   bool first_ = true;
   bool holding_ = false;
   int cycles_ = 0;
@@ -1417,6 +1434,7 @@ PickingPipeline<Robot, Sensor, Estimator, Clock, Gripper>::PickingPipeline(Robot
   require(s.cup_tool.lo.allFinite() && s.cup_tool.hi.allFinite(), "cup_tool", "must be finite");
   require(std::isfinite(s.min_grasp_height), "min_grasp_height", "must be finite");
   require(std::isfinite(s.retry_distance) && s.retry_distance >= 0, "retry_distance", "must be finite and >= 0");
+  require(s.forget_distance >= 0, "forget_distance", "must be >= 0 (infinity: a success forgets every failure)");
   require(std::isfinite(s.confident_percent) && s.confident_percent >= 0 && s.confident_percent <= 100, "confident_percent",
           "must be in [0, 100]");
   require(s.bin_length > 0 && s.bin_width > 0 && s.bin_height > 0, "bin_length", "bin sizes must be > 0");
