@@ -216,8 +216,9 @@ struct PipelineSettings {
   /// leaning 31° on an unrecognized one, blocked in 5 cycles in a row).
   bool drag_apart = true;
   /// An object at which this many remembered grips failed (failures within `retry_distance` of its
-  /// grasp point, not forgotten by a success: forget_distance) is dragged (off a wall, or as drag_apart, else toward the
-  /// bin centre) instead of gripped again, when no other object offers a grasp. The cell does not know
+  /// grasp point, not forgotten by a success: forget_distance) is dragged (off a wall, or as
+  /// drag_apart, else toward the bin centre) instead of gripped again, when no other object offers a
+  /// grasp. The cell does not know
   /// why a grip failed: a neighbour the fused depth hides, or a pose the views keep getting wrong; both
   /// change when the part moves. 0: never.
   int drag_after_failures = 2;
