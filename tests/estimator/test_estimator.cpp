@@ -215,6 +215,63 @@ TEST(ReferenceEstimator, CleanDepthFindsTopPartsAccurately) {
   }
 }
 
+// Flat nuts side by side meet at one height without a crease, and the metal sensor's edge fringe
+// bridges the gap between them (drawn in here, on clean depth): one flat segment larger than a part.
+// Without the bin that is floor; with the bin known it lies a nut's height above the floor and is
+// split into nuts (ReferenceEstimatorSettings::cluster_min_height).
+TEST(ReferenceEstimator, TouchingFlatNutsAreNotTakenForFloor) {
+  const StereoSensor<float> sensor(sensor_settings(false));
+  const PartType type = PartType::mirror_nut;
+  Scene<float> scene;
+  // Corner to corner, 1.8 mm apart: the collision spheres reach 8.3 mm from the axis along x.
+  const float gap = 0.0168f;
+  for (const Vector2<float>& xy : {Vector2<float>(0, 0), Vector2<float>(gap, 0), Vector2<float>(2 * gap, 0)})
+    scene.add_part(type, scene.model(type).rest_orientations[0], xy);
+  for (const auto& p : scene.parts())
+    ASSERT_GT(p.T_base_part.linear()(2, 2), 0.99f) << "a nut does not lie flat at x " << p.T_base_part.translation().x();
+  const Eigen::Vector3f centre(gap, 0, 0);
+  const Isometry3f T_base_camera = look_at(Eigen::Vector3f(centre.x() + 0.01f, centre.y(), 0.3f), centre);
+  auto frame = sensor.render(scene, T_base_camera, 0);
+  // The fringe: the floor between the nuts, within 3 mm of their line, reads the nuts' top.
+  const float top = scene.parts()[0].T_base_part.translation().z() + 0.00325f;
+  int bridged = 0;
+  for (int v = 0; v < frame.depth.height(); ++v)
+    for (int u = 0; u < frame.depth.width(); ++u) {
+      const Eigen::Vector3f o = T_base_camera.translation();
+      const Eigen::Vector3f d = T_base_camera.linear() * sensor.camera().backproject(float(u), float(v), 1.f);
+      const Eigen::Vector3f p = o + d * ((top - o.z()) / d.z());
+      const Eigen::Vector3f at = T_base_camera.inverse() * p;
+      if (std::abs(p.y()) < 0.003f && p.x() > 0 && p.x() < 2 * gap && frame.depth.at(u, v) > at.z() + 0.002f) {
+        frame.depth.at(u, v) = at.z();
+        ++bridged;
+      }
+    }
+  ASSERT_GT(bridged, 10);
+  auto in = input_of(frame.depth, sensor.camera());
+  give_bin(in, scene, T_base_camera);
+  // The region of interest: 4 cm round the nuts (the walls' rims would come first, top-most first).
+  ReferenceEstimatorSettings<float> es;
+  const Isometry3f T_camera_base = T_base_camera.inverse();
+  const auto a = sensor.camera().project(T_camera_base * (centre + Eigen::Vector3f(-0.04f, 0.04f, 0)));
+  const auto b = sensor.camera().project(T_camera_base * (centre + Eigen::Vector3f(0.04f, -0.04f, 0)));
+  es.roi_u0 = int(std::min(a->x(), b->x()));
+  es.roi_u1 = int(std::max(a->x(), b->x()));
+  es.roi_v0 = int(std::min(a->y(), b->y()));
+  es.roi_v1 = int(std::max(a->y(), b->y()));
+  ReferenceEstimatorSettings<float> as_floor = es;
+  as_floor.cluster_min_height = std::numeric_limits<float>::infinity();
+  const Estimator est(scene.model(type), es), est_floor(scene.model(type), as_floor);
+  auto found = [&](const Estimator& e) {
+    int n = 0;
+    for (const auto& o : e.estimate_detailed(in).result.objects) n += correct(match(scene, T_base_camera, o), 3, 10);
+    return n;
+  };
+  const int with_rule = found(est), as_before = found(est_floor);
+  std::printf("touching flat nuts found: %d, %d when taken for floor\n", with_rule, as_before);
+  EXPECT_EQ(with_rule, 3);
+  EXPECT_EQ(as_before, 0);
+}
+
 // A part whose faces differ little in width (the RJ45 plug: 21 × 14 lying flat, 21 × 11.7 on its side)
 // fits a pile's top face turned a quarter about its long axis nearly as well: the narrower face lies
 // inside the measured one, so the z-buffer confidence alone (which looks only where the model is) ties.
@@ -493,8 +550,9 @@ TEST(ReferenceEstimator, RejectsBadInput) {
   ReferenceEstimatorSettings<float> bad;
   bad.support_distance = 0;
   EXPECT_THROW(Estimator(make_part<float>(PartType::mirror_nut), bad), std::invalid_argument);
-  for (int k = 0; k < 11; ++k) {
+  for (int k = 0; k < 12; ++k) {
     ReferenceEstimatorSettings<float> b;
+    if (k == 11) b.cluster_min_height = std::numeric_limits<float>::quiet_NaN();
     if (k == 9) b.max_floor_penetration = -0.001f;
     if (k == 10) b.max_floor_penetration = std::numeric_limits<float>::quiet_NaN();
     if (k == 7) b.hole_reach = -0.001f;
