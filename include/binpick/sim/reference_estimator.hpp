@@ -14,9 +14,9 @@
 ///     neighbours;
 ///  2. segments: 4-connected cells whose depth is continuous (step ≤ edge_jump) and whose surface is
 ///     not concave between them (touching parts meet in concave creases); segments larger than a part
-///     are touching parts when, with the bin known, they lie above its floor (cluster_min_height), and
-///     are split around their top-most points; else they are background when flat (floor, wall, rim)
-///     and split only with split_large_segments; background too are small segments and those
+///     are background (optionally split around their top-most points) — flat ones too, unless, with
+///     the bin known, they lie above its floor: parts lying flat side by side, split so
+///     (cluster_min_height) —, as are small segments and those
 ///     with nearer surface along much of their border (not a local height maximum); candidates are
 ///     taken top-most first (smallest depth);
 ///  3. fit: for each candidate and model, the model's principal axes are aligned to the segment's in
@@ -108,13 +108,11 @@ struct ReferenceEstimatorSettings {
   Scalar max_segment_area_factor = Scalar(12); ///< segments larger than this × the largest model's area are background
   Scalar planar_rms = Scalar(0.001);           ///< larger-than-a-part segments flatter than this are background [m]
   Scalar max_occluded_border = Scalar(0.35);   ///< candidates with more of their border under nearer surface are dropped
-  /// Split part-sized pieces off larger non-flat segments that are not known to lie above the floor
-  /// (cluster_min_height); else they are background.
-  bool split_large_segments = false;
-  /// [m] With the bin known (EstimatorInput::bin), a segment larger than a part whose mean lies more
-  /// than this above the floor, and a part's radius inside the walls, is touching parts, flat or not,
-  /// and is split into part-sized pieces.
-  /// Touching flat parts meet at one height without a crease, and the metal sensor's edge fringe
+  bool split_large_segments = false;           ///< split part-sized pieces off larger non-flat segments (else: background)
+  /// [m] With the bin known (EstimatorInput::bin), a flat segment larger than a part whose mean lies
+  /// more than this above the floor, and a part's radius inside the walls, is parts lying flat side
+  /// by side, split into part-sized pieces (as split_large_segments splits non-flat ones). Touching
+  /// flat parts meet at one height without a crease, and the metal sensor's edge fringe
   /// closes the gap between them: one flat segment, taken for floor. In binpick_sim a mirror-nut run
   /// ended with 3 nuts left that 4 looks in a row recognized none of. Infinity: the rule without the
   /// bin (flat: background; else split_large_segments). Measured in the README.
@@ -614,8 +612,8 @@ class ReferenceEstimator {
         out.push_back({top, std::vector<std::uint32_t>(first, last)});
         continue;
       }
-      // Larger than a part: touching parts when above the known floor (flat ones meet without a
-      // crease); else flat means floor, wall or rim.
+      // Larger than a part. Flat: floor, wall or rim, not a pile of parts, unless it lies above the
+      // known floor (flat parts side by side meet without a crease).
       std::vector<Vec3> pts;
       pts.reserve(seg.size());
       for (const auto c : seg) pts.push_back(g.points[c]);
@@ -623,7 +621,7 @@ class ReferenceEstimator {
       Vec3 mean, var;
       detail::principal_axes(pts, axes, mean, &var);
       const bool flat = std::sqrt(std::max(var.z(), Scalar(0))) < s_.planar_rms;
-      if (!above_floor_inside(input, mean) && (flat || !s_.split_large_segments)) continue;
+      if (flat ? !above_floor_inside(input, mean) : !s_.split_large_segments) continue;
       // Touching parts not split by a crease: pieces around the top-most points.
       std::sort(members.begin() + begin[sid], members.begin() + begin[sid + 1],
                 [&](std::uint32_t a, std::uint32_t b) { return g.points[a].z() < g.points[b].z(); });
