@@ -217,8 +217,8 @@ TEST(ReferenceEstimator, CleanDepthFindsTopPartsAccurately) {
 
 // Flat nuts side by side meet at one height without a crease, and the metal sensor's edge fringe
 // bridges the gap between them (drawn in here, on clean depth): one flat segment larger than a part.
-// Without the bin that is floor; with the bin known it lies a nut's height above the floor and is
-// split into nuts (ReferenceEstimatorSettings::cluster_min_height).
+// Without the bin, or by default, that is floor; with the bin known and cluster_min_height set it
+// lies a nut's height above the floor and is split into nuts.
 TEST(ReferenceEstimator, TouchingFlatNutsAreNotTakenForFloor) {
   const StereoSensor<float> sensor(sensor_settings(false));
   const PartType type = PartType::mirror_nut;
@@ -251,6 +251,7 @@ TEST(ReferenceEstimator, TouchingFlatNutsAreNotTakenForFloor) {
   give_bin(in, scene, T_base_camera);
   // The region of interest: 4 cm round the nuts (the walls' rims would come first, top-most first).
   ReferenceEstimatorSettings<float> es;
+  es.cluster_min_height = 0.002f;  // as the simulated cell sets it for nuts
   const Isometry3f T_camera_base = T_base_camera.inverse();
   const auto a = sensor.camera().project(T_camera_base * (centre + Eigen::Vector3f(-0.04f, 0.04f, 0)));
   const auto b = sensor.camera().project(T_camera_base * (centre + Eigen::Vector3f(0.04f, -0.04f, 0)));

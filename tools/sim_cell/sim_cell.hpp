@@ -245,6 +245,8 @@ struct Cell {
     sim::ReferenceEstimatorSettings<S> es;
     es.num_threads = o.threads;
     es.gripper.approach_opening = sim::widest_opening(scene.model(o.part));  // as SimGripper opens
+    // Nuts lie flat side by side, and a cluster of them is not floor (measured in the setting's doc).
+    if (o.part == sim::PartType::mirror_nut || o.part == sim::PartType::circle_nut) es.cluster_min_height = S(0.002);
     // The pipeline's check against the known bin: the gripper the judge and the estimator model.
     const auto& g = es.gripper;
     ps.jaw_tool = cycle::jaw_tool_box(g.approach_opening + 2 * g.finger_clearance, g.finger_thickness, g.finger_width,
