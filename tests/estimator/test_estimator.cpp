@@ -56,16 +56,23 @@ const Isometry3f kReference = look_at(Eigen::Vector3f(0, 0, 0.3f), Eigen::Vector
 
 // Settings with the region of interest an integrator configures: the bin floor's inside as seen by the
 // reference view, kept clear of the walls (the floor rectangle shrunk to ±20 × ±10 cm).
-ReferenceEstimatorSettings<float> settings_for(const Camera& camera) {
+// Default settings whose region of interest is the image box of base points a and b seen from
+// T_base_camera.
+ReferenceEstimatorSettings<float> settings_with_roi(const Camera& camera, const Isometry3f& T_base_camera,
+                                                    const Eigen::Vector3f& a_base, const Eigen::Vector3f& b_base) {
   ReferenceEstimatorSettings<float> s;
-  const Isometry3f T_camera_base = kReference.inverse();
-  const auto a = camera.project(T_camera_base * Eigen::Vector3f(-0.20f, 0.10f, 0));
-  const auto b = camera.project(T_camera_base * Eigen::Vector3f(0.20f, -0.10f, 0));
+  const Isometry3f T_camera_base = T_base_camera.inverse();
+  const auto a = camera.project(T_camera_base * a_base);
+  const auto b = camera.project(T_camera_base * b_base);
   s.roi_u0 = int(std::min(a->x(), b->x()));
   s.roi_u1 = int(std::max(a->x(), b->x()));
   s.roi_v0 = int(std::min(a->y(), b->y()));
   s.roi_v1 = int(std::max(a->y(), b->y()));
   return s;
+}
+
+ReferenceEstimatorSettings<float> settings_for(const Camera& camera) {
+  return settings_with_roi(camera, kReference, Eigen::Vector3f(-0.20f, 0.10f, 0), Eigen::Vector3f(0.20f, -0.10f, 0));
 }
 
 cycle::EstimatorInput<float, Camera> input_of(const DepthImage<float>& depth, const Camera& camera) {
@@ -234,13 +241,14 @@ TEST(ReferenceEstimator, TouchingFlatNutsAreNotTakenForFloor) {
   auto frame = sensor.render(scene, T_base_camera, 0);
   // The fringe: the floor between the nuts, within 3 mm of their line, reads the nuts' top.
   const float top = scene.parts()[0].T_base_part.translation().z() + 0.00325f;
+  const Eigen::Vector3f o = T_base_camera.translation();
+  const Isometry3f T_camera_base = T_base_camera.inverse();
   int bridged = 0;
   for (int v = 0; v < frame.depth.height(); ++v)
     for (int u = 0; u < frame.depth.width(); ++u) {
-      const Eigen::Vector3f o = T_base_camera.translation();
       const Eigen::Vector3f d = T_base_camera.linear() * sensor.camera().backproject(float(u), float(v), 1.f);
       const Eigen::Vector3f p = o + d * ((top - o.z()) / d.z());
-      const Eigen::Vector3f at = T_base_camera.inverse() * p;
+      const Eigen::Vector3f at = T_camera_base * p;
       if (std::abs(p.y()) < 0.003f && p.x() > 0 && p.x() < 2 * gap && frame.depth.at(u, v) > at.z() + 0.002f) {
         frame.depth.at(u, v) = at.z();
         ++bridged;
@@ -250,15 +258,10 @@ TEST(ReferenceEstimator, TouchingFlatNutsAreNotTakenForFloor) {
   auto in = input_of(frame.depth, sensor.camera());
   give_bin(in, scene, T_base_camera);
   // The region of interest: 4 cm round the nuts (the walls' rims would come first, top-most first).
-  ReferenceEstimatorSettings<float> es;
+  ReferenceEstimatorSettings<float> es =
+      settings_with_roi(sensor.camera(), T_base_camera, centre + Eigen::Vector3f(-0.04f, 0.04f, 0),
+                        centre + Eigen::Vector3f(0.04f, -0.04f, 0));
   es.cluster_min_height = 0.002f;  // as the simulated cell sets it for nuts
-  const Isometry3f T_camera_base = T_base_camera.inverse();
-  const auto a = sensor.camera().project(T_camera_base * (centre + Eigen::Vector3f(-0.04f, 0.04f, 0)));
-  const auto b = sensor.camera().project(T_camera_base * (centre + Eigen::Vector3f(0.04f, -0.04f, 0)));
-  es.roi_u0 = int(std::min(a->x(), b->x()));
-  es.roi_u1 = int(std::max(a->x(), b->x()));
-  es.roi_v0 = int(std::min(a->y(), b->y()));
-  es.roi_v1 = int(std::max(a->y(), b->y()));
   ReferenceEstimatorSettings<float> as_floor = es;
   as_floor.cluster_min_height = std::numeric_limits<float>::infinity();
   const Estimator est(scene.model(type), es), est_floor(scene.model(type), as_floor);
