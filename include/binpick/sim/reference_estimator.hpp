@@ -13,12 +13,12 @@
 ///  1. grid: every `stride`-th pixel inside the region of interest backprojected, normals from grid
 ///     neighbours;
 ///  2. segments: 4-connected cells whose depth is continuous (step ≤ edge_jump) and whose surface is
-///     not concave between them (touching parts meet in concave creases); segments larger than a part
-///     are background (optionally split around their top-most points) — flat ones too, unless, with
-///     the bin known and cluster_min_height set, they lie above its floor: parts lying flat side by
-///     side, split so —, as are small segments and those
-///     with nearer surface along much of their border (not a local height maximum); candidates are
-///     taken top-most first (smallest depth);
+///     not concave between them (touching parts meet in concave creases). Segments larger than a part
+///     are background (floor, wall, rim), unless a setting splits them into part-sized pieces around
+///     their top-most points: split_large_segments the non-flat ones, cluster_min_height (with the bin
+///     known) the flat ones above its floor, parts lying flat side by side. Background too are small
+///     segments and those with nearer surface along much of their border (not a local height
+///     maximum). Candidates are taken top-most first (smallest depth);
 ///  3. fit: for each candidate and model, the model's principal axes are aligned to the segment's in
 ///     every distinct way (24 signed axis permutations, fewer after removing the part's symmetries),
 ///     each start refined by point-to-plane ICP of a subset of the segment on the model's surface
@@ -596,6 +596,9 @@ class ReferenceEstimator {
     };
     std::vector<Candidate> out;
     const Scalar background_area = s_.max_segment_area_factor * max_area_;
+    // Whether any rule may split a segment larger than a part (else it is background, unexamined).
+    const bool may_split = s_.split_large_segments || (input.bin.known() && std::isfinite(s_.cluster_min_height));
+    std::vector<Vec3> pts;  // a large segment's points, reused
     struct Span {  // one segment's cells in `members`
       const std::uint32_t *b, *e;
       const std::uint32_t* begin() const { return b; }
@@ -623,8 +626,8 @@ class ReferenceEstimator {
       }
       // Larger than a part. Flat: floor, wall or rim, not a pile of parts, unless it lies above the
       // known floor (flat parts side by side meet without a crease).
-      std::vector<Vec3> pts;
-      pts.reserve(seg.size());
+      if (!may_split) continue;
+      pts.clear();
       for (const auto c : seg) pts.push_back(g.points[c]);
       Mat3 axes;
       Vec3 mean, var;
