@@ -544,6 +544,11 @@ TEST(Pipeline, RejectsBadSettings) {
   ps = {};
   ps.look_wall_band = std::numeric_limits<S>::infinity();
   rejected("look_wall_band");
+  ps = {};
+  ps.drag_clearance = -0.001f;
+  rejected("drag_clearance");
+  ps.drag_clearance = std::numeric_limits<S>::quiet_NaN();
+  rejected("drag_clearance");
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -879,6 +884,45 @@ TEST(Pipeline, DragsBlockedNeighboursApart) {
       EXPECT_NEAR(gap, 0.022f, 1e-4f);
     const auto r2 = cell.pipeline->run_cycle();
     EXPECT_EQ(r2.search, !apart);
+  }
+}
+
+// drag_clearance: the same two blocked nuts, with a stack of two nuts the estimator does not recognize
+// where either drag would end, 40 mm beyond each. The drag turns and the nut lands on the floor clear
+// of the stack; with the setting 0 it goes straight and lands on the stack.
+TEST(Pipeline, DragsAPartClearOfOthers) {
+  for (const bool clearance : {true, false}) {
+    TestCell cell(0, cycle::Strategy::ours);
+    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.0f, 0.0f));
+    cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.022f, 0.0f));
+    for (const float x : {-0.040f, 0.062f})
+      for (int k = 0; k < 2; ++k) cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(x, 0.0f));
+    cell.estimator.all_blocked = true;
+    cell.estimator.only_ids = {cell.scene.parts()[0].id, cell.scene.parts()[1].id};
+    cell.reconfigure([&](cycle::PipelineSettings<S>& ps) { ps.drag_clearance = clearance ? S(0.015) : S(0); });
+    std::vector<Eigen::Vector3f> before;
+    for (const auto& p : cell.scene.parts()) before.push_back(p.T_base_part.translation());
+    const auto r = cell.pipeline->run_cycle();
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    ASSERT_TRUE(r.dragged);
+    // The dragged nut (moved more than 3 cm) and its distance to the stacks' centres.
+    int moved = 0;
+    float to_stack = 1, height = 0;
+    for (const auto& p : cell.scene.parts()) {
+      if (p.id > 1) continue;  // ids follow the order added (an empty scene first)
+      const Eigen::Vector3f at = p.T_base_part.translation(), start = before[std::size_t(p.id)];
+      if (!((at - start).head<2>().norm() > 0.03f)) continue;
+      ++moved;
+      height = at.z() - cell.pipeline->settings().bin_center.z();
+      for (const float x : {-0.040f, 0.062f}) to_stack = std::min(to_stack, (at.head<2>() - Eigen::Vector2f(x, 0.0f)).norm());
+    }
+    ASSERT_EQ(moved, 1) << "clearance " << clearance;
+    if (clearance) {
+      EXPECT_GT(to_stack, 0.02f) << "landed against the stack";
+      EXPECT_LT(height, 0.004f) << "not on the floor";
+    } else {
+      EXPECT_GT(height, 0.004f) << "did not land on the stack";
+    }
   }
 }
 
