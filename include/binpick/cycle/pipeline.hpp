@@ -243,9 +243,9 @@ struct PipelineSettings {
   Scalar drag_radius = Scalar(0.005);        ///< [m] the closed tool's footprint
   /// [m] A drag ends clear of other parts: where the fused depth shows no surface drag_surface_height
   /// above the floor within this of the dragged part's new centre (none it brings along: points within
-  /// this of where it started are its own; outside the view, nothing shows). When the planned direction ends on such surface, it turns by
-  /// 30°, then 60° to either side, to the first that ends clear (as planned when none does). 0: drags
-  /// go as planned. A part dragged into others may end propped on them, standing or tangled
+  /// this of where it started are its own; outside the view, nothing shows). When the planned
+  /// direction ends on such surface, it turns by 30°, then 60° to either side, to the first that ends
+  /// clear (as planned when none does). 0: drags go as planned. A part dragged into others may end propped on them, standing or tangled
   /// (binpick_sim ours, 1280 × 1024, seed 5, mirror nut run 0: a flat nut dragged 40 mm into two
   /// leaning ones ended standing among them).
   Scalar drag_clearance = Scalar(0.015);
