@@ -5,6 +5,7 @@
 #include <rapidcheck/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <future>
 #include <limits>
@@ -637,9 +638,10 @@ TEST(Strategies, OursBeatsRandomPathOnMirrorNuts) {
   nuts.seed = 1;
   nuts.width = 1280;
   nuts.height = 1024;
-  nuts.views = 3;
-  nuts.interval = 0.060;
-  nuts.speed_percent = 60;
+  const simcell::Params table = simcell::table3(nuts.part);
+  nuts.views = table.n;
+  nuts.interval = table.t_ms * 1e-3;
+  nuts.speed_percent = S(table.v_percent);
   nuts.compute_time = 0.040;
   nuts.max_cycles = 3 * nuts.parts + 10;
   // B on a second thread (each cell is independent and single-threaded: the same picks, half the wait).
@@ -895,13 +897,14 @@ TEST(Pipeline, DragsAPartClearOfOthers) {
     TestCell cell(0, cycle::Strategy::ours);
     cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.0f, 0.0f));
     cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(0.022f, 0.0f));
-    for (const float x : {-0.040f, 0.062f})
-      for (int k = 0; k < 2; ++k) cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), Eigen::Vector2f(x, 0.0f));
+    const std::array<Eigen::Vector2f, 2> stacks{Eigen::Vector2f(-0.040f, 0.0f), Eigen::Vector2f(0.062f, 0.0f)};
+    for (const auto& xy : stacks)
+      for (int k = 0; k < 2; ++k) cell.scene.add_part(sim::PartType::circle_nut, Eigen::Matrix3f::Identity(), xy);
     cell.estimator.all_blocked = true;
     cell.estimator.only_ids = {cell.scene.parts()[0].id, cell.scene.parts()[1].id};
     cell.reconfigure([&](cycle::PipelineSettings<S>& ps) { ps.drag_clearance = clearance ? S(0.015) : S(0); });
-    std::vector<Eigen::Vector3f> before;
-    for (const auto& p : cell.scene.parts()) before.push_back(p.T_base_part.translation());
+    const std::array<Eigen::Vector3f, 2> before{cell.scene.parts()[0].T_base_part.translation(),
+                                                cell.scene.parts()[1].T_base_part.translation()};
     const auto r = cell.pipeline->run_cycle();
     ASSERT_TRUE(r.error.empty()) << r.error;
     ASSERT_TRUE(r.dragged);
@@ -914,7 +917,7 @@ TEST(Pipeline, DragsAPartClearOfOthers) {
       if (!((at - start).head<2>().norm() > 0.03f)) continue;
       ++moved;
       height = at.z() - cell.pipeline->settings().bin_center.z();
-      for (const float x : {-0.040f, 0.062f}) to_stack = std::min(to_stack, (at.head<2>() - Eigen::Vector2f(x, 0.0f)).norm());
+      for (const auto& xy : stacks) to_stack = std::min(to_stack, (at.head<2>() - xy).norm());
     }
     ASSERT_EQ(moved, 1) << "clearance " << clearance;
     if (clearance) {

@@ -32,26 +32,10 @@
 using namespace binpick;
 using binpick::tools::json_number;
 using binpick::tools::json_string;
+using binpick::simcell::Params;
+using binpick::simcell::table3;
 
 namespace {
-
-struct Params {  // Table III "Sensing Parameters" of a part type
-  int n = 4;
-  double t_ms = 30;
-  double v_percent = 80;
-};
-
-// Table III of the paper, the defaults until binpick_calibrate has written its own.
-Params table3(sim::PartType p) {
-  switch (p) {
-    case sim::PartType::small_screw: return {4, 30, 70};
-    case sim::PartType::lan_connector: return {4, 30, 80};
-    case sim::PartType::mirror_nut: return {3, 60, 60};
-    case sim::PartType::pencil_coupler: return {4, 30, 80};
-    case sim::PartType::circle_nut: return {4, 30, 80};
-  }
-  return {};
-}
 
 struct Options {
   std::vector<sim::PartType> types;

@@ -25,6 +25,25 @@
 
 namespace binpick::simcell {
 
+/// Table III "Sensing Parameters" of a part type: n views, interval t [ms], speed v [%].
+struct Params {
+  int n = 4;
+  double t_ms = 30;
+  double v_percent = 80;
+};
+
+/// Table III of the paper, the defaults until binpick_calibrate has written its own.
+inline Params table3(sim::PartType p) {
+  switch (p) {
+    case sim::PartType::small_screw: return {4, 30, 70};
+    case sim::PartType::lan_connector: return {4, 30, 80};
+    case sim::PartType::mirror_nut: return {3, 60, 60};
+    case sim::PartType::pencil_coupler: return {4, 30, 80};
+    case sim::PartType::circle_nut: return {4, 30, 80};
+  }
+  return {};
+}
+
 /// Part types from an option value: "all", or names separated by commas (sim::part_type_from_name).
 /// Throws std::invalid_argument for an unknown name or a list naming none.
 inline std::vector<sim::PartType> part_types(const std::string& list) {
